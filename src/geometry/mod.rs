@@ -1,0 +1,83 @@
+//! Geometry kernels and the structure-of-arrays pools they run over.
+//!
+//! One file per primitive kind (`sphere`, `quad`, `triangle`), each holding the pool, its
+//! bounds, its intersection kernel and its normal side by side. Boxes become six quads and
+//! meshes become triangles when a scene is compiled (`scene::compile`), so only these three
+//! kinds exist at render time.
+//!
+//! Operation order inside the kernels is part of their contract: the packet tracers repeat
+//! it lane for lane so that every width returns the same bits. No `mul_add`, no approximate
+//! reciprocals.
+
+pub mod aabb;
+pub mod quad;
+pub mod sphere;
+pub mod triangle;
+
+pub use aabb::Aabb;
+pub use quad::QuadPool;
+pub use sphere::SpherePool;
+pub use triangle::TrianglePool;
+
+use glam::Vec3;
+
+/// A ray with a unit-length direction (every ray the renderer makes is normalised).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub origin: Vec3,
+    pub dir: Vec3,
+}
+
+impl Ray {
+    #[inline]
+    pub fn new(origin: Vec3, dir: Vec3) -> Self {
+        Self { origin, dir }
+    }
+
+    #[inline]
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + self.dir * t
+    }
+}
+
+/// The primitive kinds that exist after compilation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum PrimKind {
+    Sphere,
+    Quad,
+    Triangle,
+}
+
+/// The closest hit found so far along a ray.
+///
+/// Closest means the smallest `(t, id)` pair: `id` is the primitive's scene-wide id, fixed
+/// at compile time in scene-file order, so the answer cannot depend on the order in which
+/// an acceleration structure visits primitives.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    /// Scene-wide primitive id (tie-breaker).
+    pub id: u32,
+    pub kind: PrimKind,
+    /// Index into the pool of `kind`.
+    pub index: u32,
+    /// The scene object the primitive came from (a box or a mesh is one object).
+    pub object: u32,
+}
+
+impl Hit {
+    /// Does a candidate at `(t, id)` beat this hit?
+    #[inline]
+    pub fn is_beaten_by(&self, t: f32, id: u32) -> bool {
+        t < self.t || (t == self.t && id < self.id)
+    }
+}
+
+/// Keep `candidate` in `best` if it is closer by the `(t, id)` rule.
+#[inline]
+pub fn keep_closest(best: &mut Option<Hit>, candidate: Hit) {
+    match best {
+        Some(b) if !b.is_beaten_by(candidate.t, candidate.id) => {}
+        _ => *best = Some(candidate),
+    }
+}

@@ -1,0 +1,150 @@
+//! Spheres: pool, bounds, intersection, normal.
+//!
+//! Scene keys (read in `scene::desc`): `center`, `radius`.
+
+use super::{Aabb, Ray};
+use glam::Vec3;
+
+/// Spheres, structure-of-arrays.
+#[derive(Clone, Debug, Default)]
+pub struct SpherePool {
+    pub cx: Vec<f32>,
+    pub cy: Vec<f32>,
+    pub cz: Vec<f32>,
+    pub radius: Vec<f32>,
+    /// Scene-wide primitive id (closest-hit tie-breaker).
+    pub id: Vec<u32>,
+    /// The scene object each sphere belongs to.
+    pub object: Vec<u32>,
+}
+
+impl SpherePool {
+    pub fn len(&self) -> usize {
+        self.radius.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.radius.is_empty()
+    }
+
+    pub fn push(&mut self, center: Vec3, radius: f32, id: u32, object: u32) {
+        self.cx.push(center.x);
+        self.cy.push(center.y);
+        self.cz.push(center.z);
+        self.radius.push(radius);
+        self.id.push(id);
+        self.object.push(object);
+    }
+
+    #[inline]
+    pub fn center(&self, i: usize) -> Vec3 {
+        Vec3::new(self.cx[i], self.cy[i], self.cz[i])
+    }
+
+    pub fn bounds(&self, i: usize) -> Aabb {
+        let r = Vec3::splat(self.radius[i]);
+        Aabb::new(self.center(i) - r, self.center(i) + r)
+    }
+
+    /// Outward unit normal at a point on sphere `i`: (P − C) / r, as in the seed.
+    /// A zero-radius sphere has no normal; it returns +y rather than NaN.
+    #[inline]
+    pub fn normal(&self, i: usize, p: Vec3) -> Vec3 {
+        let r = self.radius[i];
+        if r > 0.0 {
+            (p - self.center(i)) / r
+        } else {
+            Vec3::Y
+        }
+    }
+
+    /// Distance to sphere `i` in `[t_min, t_max]`: the near root if it is in range, else the
+    /// far root (the seed's rule, so a ray starting inside hits the far wall).
+    #[inline]
+    pub fn intersect(&self, i: usize, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
+        sphere_intersect(self.center(i), self.radius[i], ray, t_min, t_max)
+    }
+}
+
+/// Numerically stable ray/sphere intersection (Haines et al., Ray Tracing Gems ch. 7).
+///
+/// The discriminant is computed from the squared distance between the centre and the
+/// ray's line (`r² − |f − (f·d/d·d) d|²`) instead of `b² − 4ac`, which cancels
+/// catastrophically for small or distant spheres; the roots come from the stable
+/// `q = −(b + sign(b)·√Δ)` form.
+#[inline]
+pub fn sphere_intersect(
+    center: Vec3,
+    radius: f32,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Option<f32> {
+    let d = ray.dir;
+    let f = ray.origin - center;
+    let a = d.dot(d);
+    let b = f.dot(d); // half of the usual b
+    let c = f.dot(f) - radius * radius;
+    let perp = f - d * (b / a);
+    let quarter_disc = a * (radius * radius - perp.dot(perp));
+    if quarter_disc < 0.0 {
+        return None;
+    }
+    let root = quarter_disc.sqrt();
+    let q = if b >= 0.0 { -(b + root) } else { -(b - root) };
+    let (t0, t1) = if q == 0.0 {
+        // Origin on the sphere and the ray tangent to it: both roots are 0.
+        (0.0, 0.0)
+    } else {
+        let x0 = c / q;
+        let x1 = q / a;
+        if x0 <= x1 {
+            (x0, x1)
+        } else {
+            (x1, x0)
+        }
+    };
+    if t0 >= t_min && t0 <= t_max {
+        Some(t0)
+    } else if t1 >= t_min && t1 <= t_max {
+        Some(t1)
+    } else {
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hits_front_and_back() {
+        let ray = Ray::new(Vec3::new(0.0, 0.0, 5.0), Vec3::new(0.0, 0.0, -1.0));
+        assert_eq!(
+            sphere_intersect(Vec3::ZERO, 1.0, &ray, 1e-4, f32::INFINITY),
+            Some(4.0)
+        );
+        // Starting inside: the far wall.
+        let inside = Ray::new(Vec3::ZERO, Vec3::X);
+        assert_eq!(
+            sphere_intersect(Vec3::ZERO, 2.0, &inside, 1e-4, f32::INFINITY),
+            Some(2.0)
+        );
+        // Behind the origin: no hit.
+        let away = Ray::new(Vec3::new(0.0, 0.0, 5.0), Vec3::Z);
+        assert_eq!(
+            sphere_intersect(Vec3::ZERO, 1.0, &away, 1e-4, f32::INFINITY),
+            None
+        );
+    }
+
+    #[test]
+    fn t_max_excludes_far_hits() {
+        let ray = Ray::new(Vec3::new(0.0, 0.0, 5.0), Vec3::new(0.0, 0.0, -1.0));
+        assert_eq!(sphere_intersect(Vec3::ZERO, 1.0, &ray, 1e-4, 3.0), None);
+        assert_eq!(
+            sphere_intersect(Vec3::ZERO, 1.0, &ray, 4.5, 10.0),
+            Some(6.0)
+        );
+    }
+}

@@ -1,0 +1,314 @@
+//! The scalar reference tracer: one ray at a time, with the seed's shading semantics
+//! (`seed-scenes.md` §3–§5).
+//!
+//! - Phong and PhongMirror return a final colour; Light returns its plain colour.
+//! - Diffuse, Metal and Dielectric scatter and the path continues, up to `max_depth`.
+//! - Every random number comes from `rng::SampleKey`, addressed by path vertex and slot.
+
+use crate::accel::Accel;
+use crate::geometry::{Hit, PrimKind, Ray};
+use crate::material::{random_unit_vector, reflect, refract, schlick, Material, Phong};
+use crate::rng::{slot, SampleKey};
+use crate::scene::{LightShape, Scene};
+use glam::Vec3;
+
+/// The seed's only self-intersection guard: hits closer than this are ignored, for every
+/// kind of ray.
+pub const T_MIN: f32 = 1e-4;
+
+/// Rays traced, by kind.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct RayCounts {
+    pub camera: u64,
+    pub shadow: u64,
+    /// Mirror reflections and path-traced bounces.
+    pub secondary: u64,
+}
+
+impl RayCounts {
+    pub fn total(&self) -> u64 {
+        self.camera + self.shadow + self.secondary
+    }
+
+    pub fn add(&mut self, o: &RayCounts) {
+        self.camera += o.camera;
+        self.shadow += o.shadow;
+        self.secondary += o.secondary;
+    }
+}
+
+/// Where a ray met a surface.
+#[derive(Clone, Copy, Debug)]
+pub struct Surface {
+    pub point: Vec3,
+    /// Unit geometric normal flipped to face the incoming ray (surfaces are two-sided).
+    pub normal: Vec3,
+    /// The ray arrived on the side the outward normal points to.
+    pub front_face: bool,
+    pub object: u32,
+}
+
+/// The scalar tracer over one scene and its acceleration structure.
+pub struct Tracer<'a> {
+    pub scene: &'a Scene,
+    pub accel: &'a Accel,
+    pub seed: u32,
+}
+
+impl<'a> Tracer<'a> {
+    pub fn new(scene: &'a Scene, accel: &'a Accel, seed: u32) -> Self {
+        Self { scene, accel, seed }
+    }
+
+    /// The colour of camera sample `sample` of pixel (x, y).
+    pub fn sample(&self, x: u32, y: u32, sample: u32, counts: &mut RayCounts) -> Vec3 {
+        let key = SampleKey::new(self.seed, x, y, sample);
+        let jx = key.uniform(0, slot::JITTER_X);
+        let jy = key.uniform(0, slot::JITTER_Y);
+        let ray = self.scene.camera.ray(x, y, jx, jy);
+        counts.camera += 1;
+        self.radiance(ray, key, counts)
+    }
+
+    #[inline]
+    pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+        self.accel
+            .closest_hit(self.scene, ray, T_MIN, f32::INFINITY)
+    }
+
+    /// Position, facing normal and side of a hit.
+    pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
+        let point = ray.at(hit.t);
+        let i = hit.index as usize;
+        let outward = match hit.kind {
+            PrimKind::Sphere => self.scene.spheres.normal(i, point),
+            PrimKind::Quad => self.scene.quads.normal(i),
+            PrimKind::Triangle => self.scene.triangles.normal(i),
+        };
+        let front_face = ray.dir.dot(outward) < 0.0;
+        Surface {
+            point,
+            normal: if front_face { outward } else { -outward },
+            front_face,
+            object: hit.object,
+        }
+    }
+
+    /// Trace a camera ray; path-traced materials continue the path up to `max_depth`.
+    fn radiance(&self, mut ray: Ray, key: SampleKey, counts: &mut RayCounts) -> Vec3 {
+        let scene = self.scene;
+        let mut throughput = Vec3::ONE;
+        let mut vertex = 0u32;
+        let mut depth = scene.max_depth;
+        loop {
+            if depth == 0 {
+                return Vec3::ZERO;
+            }
+            let Some(hit) = self.closest_hit(&ray) else {
+                return throughput * scene.background;
+            };
+            let surface = self.surface(&ray, &hit);
+            let next_dir = match *scene.material_of(hit.object) {
+                Material::Light { color, .. } => return throughput * color,
+                Material::Phong(ref phong) => {
+                    return throughput * self.phong(phong, &ray, &surface, key, vertex, counts)
+                }
+                Material::PhongMirror { ref phong, index } => {
+                    let c =
+                        self.phong_mirror(phong, index, &ray, &surface, key, vertex, depth, counts);
+                    return throughput * c;
+                }
+                Material::Diffuse { albedo } => {
+                    throughput *= albedo;
+                    diffuse_direction(surface.normal, key, vertex)
+                }
+                Material::Metal { albedo, fuzz } => {
+                    match metal_direction(&ray, &surface, fuzz, key, vertex) {
+                        Some(d) => {
+                            throughput *= albedo;
+                            d
+                        }
+                        // Absorbed: black (the seed returned the albedo here).
+                        None => return Vec3::ZERO,
+                    }
+                }
+                Material::Dielectric { index } => {
+                    dielectric_direction(&ray, &surface, index, key, vertex)
+                }
+            };
+            ray = Ray::new(surface.point, next_dir);
+            counts.secondary += 1;
+            depth -= 1;
+            vertex += 1;
+        }
+    }
+
+    /// Phong shading at a surface, with shadow rays to every light: one towards a point
+    /// light's centre, `AREA_LIGHT_SAMPLES` towards random points of an area light.
+    pub fn phong(
+        &self,
+        m: &Phong,
+        ray: &Ray,
+        s: &Surface,
+        key: SampleKey,
+        vertex: u32,
+        counts: &mut RayCounts,
+    ) -> Vec3 {
+        let view = -ray.dir;
+        let mut diffuse = Vec3::ZERO;
+        let mut specular = Vec3::ZERO;
+        for (li, light) in self.scene.lights.iter().enumerate() {
+            let n = light.samples();
+            let mut light_diffuse = Vec3::ZERO;
+            let mut light_specular = Vec3::ZERO;
+            for k in 0..n {
+                let target = match light.shape {
+                    LightShape::Point(p) => p,
+                    _ => {
+                        let u = |c| key.uniform(vertex, slot::light(li as u32, k, c));
+                        light.sample(u(0), u(1), u(2))
+                    }
+                };
+                let l = (target - s.point).normalize_or_zero();
+                if l == Vec3::ZERO {
+                    continue;
+                }
+                counts.shadow += 1;
+                let visible = self
+                    .closest_hit(&Ray::new(s.point, l))
+                    .is_some_and(|h| h.object == light.object);
+                if !visible {
+                    continue;
+                }
+                let n_dot_l = s.normal.dot(l);
+                light_diffuse += light.radiance * n_dot_l.max(0.0);
+                // The seed's specular term is not gated by N·L > 0.
+                let r = (s.normal * (2.0 * n_dot_l) - l).normalize_or_zero();
+                light_specular += light.radiance * r.dot(view).max(0.0).powf(m.shininess);
+            }
+            diffuse += light_diffuse / n as f32;
+            specular += light_specular / n as f32;
+        }
+        m.albedo * (self.scene.ambient * m.ka + diffuse * m.kd + specular * m.ks)
+    }
+
+    /// Phong mixed with one mirror reflection: (1 − F)·Phong + F·reflected, F by Schlick.
+    #[allow(clippy::too_many_arguments)]
+    fn phong_mirror(
+        &self,
+        m: &Phong,
+        index: f32,
+        ray: &Ray,
+        s: &Surface,
+        key: SampleKey,
+        vertex: u32,
+        budget: u32,
+        counts: &mut RayCounts,
+    ) -> Vec3 {
+        let local = self.phong(m, ray, s, key, vertex, counts);
+        let reflected_ray = Ray::new(s.point, reflect(ray.dir, s.normal).normalize());
+        counts.secondary += 1;
+        let reflected = self.evaluate_once(&reflected_ray, key, vertex + 1, budget - 1, counts);
+        let cosine = (-ray.dir.dot(s.normal)).min(1.0);
+        let f = schlick(cosine, index);
+        local * (1.0 - f) + reflected * f
+    }
+
+    /// What a mirror sees: the hit surface's material evaluated once, its bounce discarded
+    /// (Diffuse and Metal give their albedo, Dielectric white), as in the seed. Mirror
+    /// chains stop after `budget` reflections (the seed's recursion had no bound).
+    fn evaluate_once(
+        &self,
+        ray: &Ray,
+        key: SampleKey,
+        vertex: u32,
+        budget: u32,
+        counts: &mut RayCounts,
+    ) -> Vec3 {
+        if budget == 0 {
+            return Vec3::ZERO;
+        }
+        let Some(hit) = self.closest_hit(ray) else {
+            return self.scene.background;
+        };
+        let s = self.surface(ray, &hit);
+        match *self.scene.material_of(hit.object) {
+            Material::Light { color, .. } => color,
+            Material::Phong(ref phong) => self.phong(phong, ray, &s, key, vertex, counts),
+            Material::PhongMirror { ref phong, index } => {
+                self.phong_mirror(phong, index, ray, &s, key, vertex, budget, counts)
+            }
+            Material::Diffuse { albedo } | Material::Metal { albedo, .. } => albedo,
+            Material::Dielectric { .. } => Vec3::ONE,
+        }
+    }
+}
+
+/// Diffuse bounce: normal + uniform unit vector, the normal itself if that sum vanishes.
+fn diffuse_direction(normal: Vec3, key: SampleKey, vertex: u32) -> Vec3 {
+    let r = random_unit_vector(
+        key.uniform(vertex, slot::SCATTER_A),
+        key.uniform(vertex, slot::SCATTER_B),
+    );
+    let d = normal + r;
+    if d.abs().cmplt(Vec3::splat(1e-8)).all() {
+        normal
+    } else {
+        d.normalize()
+    }
+}
+
+/// Metal bounce: mirror direction plus fuzz; `None` (absorbed) if it points into the surface.
+fn metal_direction(ray: &Ray, s: &Surface, fuzz: f32, key: SampleKey, vertex: u32) -> Option<Vec3> {
+    let r = random_unit_vector(
+        key.uniform(vertex, slot::SCATTER_A),
+        key.uniform(vertex, slot::SCATTER_B),
+    );
+    let d = (reflect(ray.dir, s.normal).normalize() + r * fuzz).normalize_or_zero();
+    (d.dot(s.normal) > 0.0).then_some(d)
+}
+
+/// Dielectric: reflect on total internal reflection or with Schlick's probability
+/// (evaluated with the index ratio, as in the seed), else refract by Snell's law.
+fn dielectric_direction(ray: &Ray, s: &Surface, index: f32, key: SampleKey, vertex: u32) -> Vec3 {
+    let ratio = if s.front_face { 1.0 / index } else { index };
+    let cosine = (-ray.dir.dot(s.normal)).min(1.0);
+    let sine = (1.0 - cosine * cosine).max(0.0).sqrt();
+    let choice = key.uniform(vertex, slot::SCATTER_CHOICE);
+    let reflects = ratio * sine > 1.0 || schlick(cosine, ratio) > choice;
+    let refracted = if reflects {
+        None
+    } else {
+        refract(ray.dir, s.normal, ratio)
+    };
+    refracted
+        .unwrap_or_else(|| reflect(ray.dir, s.normal))
+        .normalize()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dielectric_at_normal_incidence_passes_straight_through() {
+        let s = Surface {
+            point: Vec3::ZERO,
+            normal: Vec3::Z,
+            front_face: true,
+            object: 0,
+        };
+        let ray = Ray::new(Vec3::Z, -Vec3::Z);
+        // Schlick at normal incidence for 1/1.5 is 0.04: any choice above it refracts.
+        let mut refracted = 0;
+        for i in 0..100 {
+            let d = dielectric_direction(&ray, &s, 1.5, SampleKey(i), 0);
+            if d == -Vec3::Z {
+                refracted += 1;
+            } else {
+                assert_eq!(d, Vec3::Z);
+            }
+        }
+        assert!(refracted > 80, "{refracted}");
+    }
+}

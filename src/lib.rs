@@ -1,0 +1,19 @@
+//! raytracer: a data-oriented SIMD packet ray tracer.
+//!
+//! Data flow (see `ARCHITECTURE.md`): scene file → `scene::desc` (serde) →
+//! `scene::compile` → `Scene` (SoA pools, materials, lights, `Features`) →
+//! `accel` → `integrator` (tracers) → `render::Film` → `output`.
+
+pub mod accel;
+pub mod camera;
+pub mod cli;
+pub mod error;
+pub mod geometry;
+pub mod integrator;
+pub mod material;
+pub mod output;
+pub mod render;
+pub mod rng;
+pub mod scene;
+
+pub use error::{Error, Result};

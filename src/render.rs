@@ -1,0 +1,121 @@
+//! Rendering a compiled scene into a film: tiles in parallel (rayon), every pixel the
+//! mean of its samples summed in sample order, so the image is the same for any thread
+//! count and tile order.
+
+use crate::accel::Accel;
+use crate::error::{Error, Result};
+use crate::integrator::{RayCounts, Tracer};
+use crate::scene::Scene;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Tile edge in pixels. A multiple of the packet footprints (4x2 and 2x2).
+pub const TILE: u32 = 16;
+
+/// Linear RGB, one `Vec3` per pixel, rows top to bottom.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<Vec3>,
+}
+
+impl Film {
+    /// A black film, or `ImageTooLarge` if the memory cannot be had.
+    pub fn new(width: u32, height: u32) -> Result<Self> {
+        let n = width as usize * height as usize;
+        let mut pixels = Vec::new();
+        pixels
+            .try_reserve_exact(n)
+            .map_err(|_| Error::ImageTooLarge {
+                width,
+                height,
+                bytes: n as u128 * std::mem::size_of::<Vec3>() as u128,
+            })?;
+        pixels.resize(n, Vec3::ZERO);
+        Ok(Self {
+            width,
+            height,
+            pixels,
+        })
+    }
+
+    pub fn get(&self, x: u32, y: u32) -> Vec3 {
+        self.pixels[(y * self.width + x) as usize]
+    }
+
+    /// Pixels with a NaN or infinite channel.
+    pub fn non_finite_count(&self) -> usize {
+        self.pixels.iter().filter(|p| !p.is_finite()).count()
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct RenderSettings {
+    pub seed: u32,
+}
+
+/// The result of a render.
+#[derive(Debug)]
+pub struct Rendered {
+    pub film: Film,
+    pub counts: RayCounts,
+}
+
+/// Render on the current rayon pool. `on_tile` is called after each tile (progress).
+pub fn render(
+    scene: &Scene,
+    accel: &Accel,
+    settings: &RenderSettings,
+    on_tile: &(dyn Fn() + Sync),
+) -> Result<Rendered> {
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let mut film = Film::new(w, h)?;
+    let tracer = Tracer::new(scene, accel, settings.seed);
+    let tiles_x = w.div_ceil(TILE);
+    let tiles_y = h.div_ceil(TILE);
+    let tiles: Vec<(u32, u32)> = (0..tiles_y)
+        .flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty)))
+        .collect();
+    let results: Vec<(Vec<Vec3>, RayCounts)> = tiles
+        .par_iter()
+        .map(|&(tx, ty)| {
+            let r = render_tile(
+                &tracer,
+                tx * TILE,
+                ty * TILE,
+                (tx * TILE + TILE).min(w),
+                (ty * TILE + TILE).min(h),
+            );
+            on_tile();
+            r
+        })
+        .collect();
+    let mut counts = RayCounts::default();
+    for (&(tx, ty), (pixels, c)) in tiles.iter().zip(&results) {
+        counts.add(c);
+        let (x0, y0) = (tx * TILE, ty * TILE);
+        let tw = (x0 + TILE).min(w) - x0;
+        for (row, chunk) in pixels.chunks_exact(tw as usize).enumerate() {
+            let start = ((y0 + row as u32) * w + x0) as usize;
+            film.pixels[start..start + tw as usize].copy_from_slice(chunk);
+        }
+    }
+    Ok(Rendered { film, counts })
+}
+
+fn render_tile(tracer: &Tracer, x0: u32, y0: u32, x1: u32, y1: u32) -> (Vec<Vec3>, RayCounts) {
+    let spp = tracer.scene.spp;
+    let mut counts = RayCounts::default();
+    let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let mut sum = Vec3::ZERO;
+            for s in 0..spp {
+                sum += tracer.sample(x, y, s, &mut counts);
+            }
+            pixels.push(sum / spp as f32);
+        }
+    }
+    (pixels, counts)
+}

@@ -1,0 +1,195 @@
+//! Scene descriptions: serde structs that mirror a scene file, word for word.
+//!
+//! Reads every key of a scene file; `scenes/README.md` documents them. Unknown keys are
+//! errors (`deny_unknown_fields`). Values are checked in `scene::compile`, which reports
+//! the line of the offending table through the spans kept here.
+
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use toml::Spanned;
+
+pub type V3 = [f32; 3];
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneDesc {
+    /// One line shown by `--list`.
+    #[serde(default)]
+    pub description: String,
+    /// Colour of rays that hit nothing.
+    pub background: Option<Spanned<V3>>,
+    /// Ambient light colour for Phong's ambient term.
+    pub ambient: Option<Spanned<V3>>,
+    pub camera: Option<Spanned<CameraDesc>>,
+    #[serde(default)]
+    pub materials: BTreeMap<String, Spanned<MaterialDesc>>,
+    #[serde(default)]
+    pub objects: Vec<Spanned<ObjectDesc>>,
+}
+
+/// The aspect ratio: a number (width / height) or a string "W:H".
+#[derive(Clone, Debug, Deserialize)]
+#[serde(untagged)]
+pub enum AspectDesc {
+    Ratio(f64),
+    Text(String),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraDesc {
+    #[serde(default = "defaults::width")]
+    pub width: i64,
+    #[serde(default = "defaults::aspect")]
+    pub aspect_ratio: AspectDesc,
+    #[serde(default = "defaults::spp")]
+    pub samples_per_pixel: i64,
+    #[serde(default = "defaults::max_depth")]
+    pub max_depth: i64,
+    #[serde(default = "defaults::vfov")]
+    pub vfov: f64,
+    #[serde(default)]
+    pub look_from: [f64; 3],
+    #[serde(default = "defaults::look_at")]
+    pub look_at: [f64; 3],
+    #[serde(default = "defaults::up")]
+    pub up: [f64; 3],
+}
+
+impl Default for CameraDesc {
+    fn default() -> Self {
+        Self {
+            width: defaults::width(),
+            aspect_ratio: defaults::aspect(),
+            samples_per_pixel: defaults::spp(),
+            max_depth: defaults::max_depth(),
+            vfov: defaults::vfov(),
+            look_from: [0.0; 3],
+            look_at: defaults::look_at(),
+            up: defaults::up(),
+        }
+    }
+}
+
+/// The seed's camera defaults (`seed-scenes.md` §2) and Phong's ka = kd = ks = 0.5.
+mod defaults {
+    use super::AspectDesc;
+    pub fn width() -> i64 {
+        100
+    }
+    pub fn aspect() -> AspectDesc {
+        AspectDesc::Ratio(1.0)
+    }
+    pub fn spp() -> i64 {
+        10
+    }
+    pub fn max_depth() -> i64 {
+        10
+    }
+    pub fn vfov() -> f64 {
+        90.0
+    }
+    pub fn look_at() -> [f64; 3] {
+        [0.0, 0.0, -1.0]
+    }
+    pub fn up() -> [f64; 3] {
+        [0.0, 1.0, 0.0]
+    }
+    pub fn half() -> f32 {
+        0.5
+    }
+    pub fn one() -> f32 {
+        1.0
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum MaterialDesc {
+    Phong {
+        albedo: V3,
+        shininess: f32,
+        #[serde(default = "defaults::half")]
+        ka: f32,
+        #[serde(default = "defaults::half")]
+        kd: f32,
+        #[serde(default = "defaults::half")]
+        ks: f32,
+    },
+    PhongMirror {
+        albedo: V3,
+        shininess: f32,
+        index: f32,
+        #[serde(default = "defaults::half")]
+        ka: f32,
+        #[serde(default = "defaults::half")]
+        kd: f32,
+        #[serde(default = "defaults::half")]
+        ks: f32,
+    },
+    Diffuse {
+        albedo: V3,
+    },
+    Metal {
+        albedo: V3,
+        #[serde(default)]
+        fuzz: f32,
+    },
+    Dielectric {
+        index: f32,
+    },
+    Light {
+        color: V3,
+        #[serde(default = "defaults::one")]
+        intensity: f32,
+    },
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ObjectDesc {
+    Sphere {
+        center: V3,
+        radius: f32,
+        material: String,
+    },
+    /// A parallelogram: corner Q and edges u, v.
+    Quad {
+        corner: V3,
+        u: V3,
+        v: V3,
+        material: String,
+    },
+    Triangle {
+        a: V3,
+        b: V3,
+        c: V3,
+        material: String,
+    },
+    /// An axis-aligned box given by two opposite corners.
+    Box { corners: [V3; 2], material: String },
+    /// An OBJ mesh, path relative to the scene file.
+    Mesh { path: String, material: String },
+}
+
+impl ObjectDesc {
+    pub fn material(&self) -> &str {
+        match self {
+            ObjectDesc::Sphere { material, .. }
+            | ObjectDesc::Quad { material, .. }
+            | ObjectDesc::Triangle { material, .. }
+            | ObjectDesc::Box { material, .. }
+            | ObjectDesc::Mesh { material, .. } => material,
+        }
+    }
+
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            ObjectDesc::Sphere { .. } => "sphere",
+            ObjectDesc::Quad { .. } => "quad",
+            ObjectDesc::Triangle { .. } => "triangle",
+            ObjectDesc::Box { .. } => "box",
+            ObjectDesc::Mesh { .. } => "mesh",
+        }
+    }
+}

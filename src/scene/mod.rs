@@ -1,0 +1,654 @@
+//! Scenes: loading a scene file (`desc`), and the compiled, render-ready `Scene` with its
+//! structure-of-arrays primitive pools, material table, light list and `Features`.
+//!
+//! `compile` is the one place where descriptions become render objects: it checks every
+//! value, expands boxes into quads and meshes into triangles, and gives every primitive
+//! a scene-wide id in file order.
+
+pub mod builtin;
+pub mod desc;
+pub mod mesh;
+
+use crate::camera::{image_height, Camera};
+use crate::error::{Error, Result};
+use crate::geometry::quad::{box_faces, Quad};
+use crate::geometry::triangle::is_proper_triangle;
+use crate::geometry::{Aabb, QuadPool, SpherePool, TrianglePool};
+use crate::material::{Material, Phong};
+use desc::{AspectDesc, MaterialDesc, ObjectDesc, SceneDesc};
+use glam::{DVec3, Vec3};
+use std::borrow::Cow;
+use std::collections::HashMap;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+/// Samples per area light (quad, triangle, box or mesh light), as in the seed.
+pub const AREA_LIGHT_SAMPLES: u32 = 10;
+
+/// The largest image the renderer accepts, in pixels (the film alone needs 12 bytes a pixel).
+pub const MAX_PIXELS: u64 = 1 << 28;
+
+/// Where a scene file came from.
+#[derive(Clone, Debug)]
+pub struct SceneSource {
+    /// The name users see in messages: a path, or `NAME (built-in)`.
+    pub display: String,
+    /// The scene's name (file stem), used for the default output file.
+    pub name: String,
+    pub text: Cow<'static, str>,
+    /// Directory that relative mesh paths start from; `None` for a built-in scene,
+    /// whose meshes are embedded.
+    pub dir: Option<PathBuf>,
+}
+
+impl SceneSource {
+    /// A built-in scene name, or a path to a `.toml` file.
+    pub fn resolve(arg: &str) -> Result<Self> {
+        let path = Path::new(arg);
+        let looks_like_path = arg.ends_with(".toml") || arg.contains('/') || arg.contains('\\');
+        if !looks_like_path {
+            if let Some(text) = builtin::scene(arg) {
+                return Ok(Self {
+                    display: format!("{arg} (built-in scenes/{arg}.toml)"),
+                    name: arg.to_string(),
+                    text: Cow::Borrowed(text),
+                    dir: None,
+                });
+            }
+            if !path.is_file() {
+                return Err(Error::UnknownScene {
+                    name: arg.to_string(),
+                    available: builtin::names().join(", "),
+                });
+            }
+        }
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: arg.to_string(),
+            source,
+        })?;
+        Ok(Self {
+            display: arg.to_string(),
+            name: path
+                .file_stem()
+                .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned()),
+            text: Cow::Owned(text),
+            dir: Some(path.parent().unwrap_or(Path::new(".")).to_path_buf()),
+        })
+    }
+
+    /// Parse the TOML into a description; syntax errors and unknown keys name line and column.
+    pub fn parse(&self) -> Result<SceneDesc> {
+        toml::from_str(&self.text).map_err(|e| {
+            let (line, column) = e.span().map_or((0, 0), |s| line_col(&self.text, s.start));
+            Error::Scene {
+                path: self.display.clone(),
+                line,
+                column,
+                message: e.message().trim().to_string(),
+            }
+        })
+    }
+
+    fn error_at(&self, offset: usize, message: impl Into<String>) -> Error {
+        let (line, column) = line_col(&self.text, offset);
+        Error::Scene {
+            path: self.display.clone(),
+            line,
+            column,
+            message: message.into(),
+        }
+    }
+}
+
+/// 1-based line and column of a byte offset.
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+    (line, column)
+}
+
+/// Command-line settings that replace the scene file's.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Overrides {
+    pub width: Option<u32>,
+    pub spp: Option<u32>,
+    pub max_depth: Option<u32>,
+}
+
+/// What a scene contains; the integrator skips what is absent (`design.md` §6).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Features {
+    pub has_spheres: bool,
+    pub has_quads: bool,
+    pub has_triangles: bool,
+    pub has_point_lights: bool,
+    pub has_area_lights: bool,
+    /// PhongMirror present: mirror rays are traced.
+    pub has_mirror: bool,
+    /// Diffuse, Metal or Dielectric present: the path-tracing loop is needed.
+    pub has_path_traced: bool,
+}
+
+impl Features {
+    pub fn has_lights(&self) -> bool {
+        self.has_point_lights || self.has_area_lights
+    }
+}
+
+/// The shape a light is sampled on. A sphere light is a point light at its centre.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LightShape {
+    Point(Vec3),
+    /// One quad, or the six faces of a box: a face is picked uniformly, then a point on it.
+    Quads(Vec<Quad>),
+    /// One triangle, or a mesh's triangles: one is picked uniformly by index.
+    Triangles(Vec<[Vec3; 3]>),
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Light {
+    /// The object that must be the nearest hit of a shadow ray for the sample to count.
+    pub object: u32,
+    /// colour · intensity (no distance fall-off, as in the seed).
+    pub radiance: Vec3,
+    pub shape: LightShape,
+}
+
+impl Light {
+    pub fn samples(&self) -> u32 {
+        match self.shape {
+            LightShape::Point(_) => 1,
+            _ => AREA_LIGHT_SAMPLES,
+        }
+    }
+
+    /// A point on the light from three uniform numbers: `pick` chooses the face or
+    /// triangle, `xi1`, `xi2` the point on it.
+    #[inline]
+    pub fn sample(&self, pick: f32, xi1: f32, xi2: f32) -> Vec3 {
+        fn index(pick: f32, n: usize) -> usize {
+            ((pick * n as f32) as usize).min(n - 1)
+        }
+        match &self.shape {
+            LightShape::Point(p) => *p,
+            LightShape::Quads(qs) => qs[index(pick, qs.len())].sample(xi1, xi2),
+            LightShape::Triangles(ts) => {
+                crate::geometry::triangle::sample_triangle(ts[index(pick, ts.len())], xi1, xi2)
+            }
+        }
+    }
+}
+
+/// A contiguous run of triangles from one object. The linear scan tests a mesh's
+/// bounding box before its triangles, as the seed did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TriangleGroup {
+    pub range: Range<u32>,
+    pub bounds: Aabb,
+    pub is_mesh: bool,
+}
+
+/// A compiled, render-ready scene.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub name: String,
+    pub description: String,
+    pub camera: Camera,
+    pub spp: u32,
+    pub max_depth: u32,
+    pub background: Vec3,
+    pub ambient: Vec3,
+    pub spheres: SpherePool,
+    pub quads: QuadPool,
+    pub triangles: TrianglePool,
+    pub triangle_groups: Vec<TriangleGroup>,
+    pub materials: Vec<Material>,
+    /// Material index of each object.
+    pub object_material: Vec<u32>,
+    pub lights: Vec<Light>,
+    pub features: Features,
+    pub bounds: Aabb,
+    /// Zero-area mesh triangles left out.
+    pub degenerate_triangles: usize,
+}
+
+impl Scene {
+    /// Load and compile a scene named on the command line.
+    pub fn load(arg: &str, overrides: Overrides) -> Result<Scene> {
+        let source = SceneSource::resolve(arg)?;
+        let desc = source.parse()?;
+        compile(&source, &desc, overrides)
+    }
+
+    pub fn primitive_count(&self) -> usize {
+        self.spheres.len() + self.quads.len() + self.triangles.len()
+    }
+
+    #[inline]
+    pub fn material_of(&self, object: u32) -> &Material {
+        &self.materials[self.object_material[object as usize] as usize]
+    }
+}
+
+fn finite3(v: [f32; 3]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+/// Check values and build the render-ready scene.
+pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> Result<Scene> {
+    let err = |offset: usize, msg: String| source.error_at(offset, msg);
+
+    // Camera.
+    let default_camera = desc::CameraDesc::default();
+    let (cam, cam_at) = match &desc.camera {
+        Some(c) => (c.get_ref(), c.span().start),
+        None => (&default_camera, 0),
+    };
+    let width = match overrides.width {
+        Some(w) => w as i64,
+        None => cam.width,
+    };
+    if !(1..=65_536).contains(&width) {
+        return Err(err(
+            cam_at,
+            format!("camera width must be 1 to 65536, got {width}"),
+        ));
+    }
+    let width = width as u32;
+    let aspect = match &cam.aspect_ratio {
+        AspectDesc::Ratio(r) => *r,
+        AspectDesc::Text(t) => parse_aspect(t).ok_or_else(|| {
+            err(
+                cam_at,
+                format!("camera aspect_ratio must be a number or \"W:H\", got \"{t}\""),
+            )
+        })?,
+    };
+    if !(aspect.is_finite() && aspect > 0.0) {
+        return Err(err(
+            cam_at,
+            format!("camera aspect_ratio must be positive, got {aspect}"),
+        ));
+    }
+    let height = match &cam.aspect_ratio {
+        // "W:H" is exact in integers: 800 at 16:9 is 450.
+        AspectDesc::Text(t) => {
+            let (w, h) = parse_aspect_parts(t).unwrap_or((1, 1));
+            ((width as u64 * h / w) as u32).max(1)
+        }
+        AspectDesc::Ratio(_) => image_height(width, aspect),
+    };
+    if height > 65_536 || (width as u64) * (height as u64) > MAX_PIXELS {
+        return Err(Error::ImageTooLarge {
+            width,
+            height,
+            bytes: width as u128 * height as u128 * 12,
+        });
+    }
+    let spp = match overrides.spp {
+        Some(s) => s as i64,
+        None => cam.samples_per_pixel,
+    };
+    if !(1..=1 << 20).contains(&spp) {
+        return Err(err(
+            cam_at,
+            format!("samples_per_pixel must be 1 to 1048576, got {spp}"),
+        ));
+    }
+    let max_depth = match overrides.max_depth {
+        Some(d) => d as i64,
+        None => cam.max_depth,
+    };
+    if !(1..=10_000).contains(&max_depth) {
+        return Err(err(
+            cam_at,
+            format!("max_depth must be 1 to 10000, got {max_depth}"),
+        ));
+    }
+    if !(cam.vfov.is_finite() && cam.vfov > 0.0 && cam.vfov < 180.0) {
+        return Err(err(
+            cam_at,
+            format!("vfov must be between 0 and 180 degrees, got {}", cam.vfov),
+        ));
+    }
+    for (key, v) in [
+        ("look_from", cam.look_from),
+        ("look_at", cam.look_at),
+        ("up", cam.up),
+    ] {
+        if !v.iter().all(|x| x.is_finite()) {
+            return Err(err(
+                cam_at,
+                format!("camera {key} must be finite, got {v:?}"),
+            ));
+        }
+    }
+    let camera = Camera::new(
+        width,
+        height,
+        cam.vfov,
+        DVec3::from(cam.look_from),
+        DVec3::from(cam.look_at),
+        DVec3::from(cam.up),
+    )
+    .ok_or_else(|| {
+        err(cam_at, "camera look_from and look_at must differ, and up must not be parallel to the view direction".into())
+    })?;
+
+    // Background and ambient.
+    let colour = |c: &Option<toml::Spanned<[f32; 3]>>, key: &str| -> Result<Vec3> {
+        match c {
+            None => Ok(Vec3::ZERO),
+            Some(s) => {
+                let v = *s.get_ref();
+                if finite3(v) && v.iter().all(|&x| x >= 0.0) {
+                    Ok(Vec3::from(v))
+                } else {
+                    Err(err(
+                        s.span().start,
+                        format!("{key} must be finite and non-negative, got {v:?}"),
+                    ))
+                }
+            }
+        }
+    };
+    let background = colour(&desc.background, "background")?;
+    let ambient = colour(&desc.ambient, "ambient")?;
+
+    // Materials.
+    let mut materials = Vec::new();
+    let mut material_index = HashMap::new();
+    for (name, m) in &desc.materials {
+        let at = m.span().start;
+        let material = compile_material(m.get_ref())
+            .map_err(|msg| err(at, format!("material '{name}': {msg}")))?;
+        material_index.insert(name.as_str(), materials.len() as u32);
+        materials.push(material);
+    }
+
+    // Objects.
+    let mut spheres = SpherePool::default();
+    let mut quads = QuadPool::default();
+    let mut triangles = TrianglePool::default();
+    let mut triangle_groups = Vec::new();
+    let mut object_material = Vec::new();
+    let mut lights = Vec::new();
+    let mut bounds = Aabb::EMPTY;
+    let mut next_id = 0u32;
+    let mut degenerate_triangles = 0;
+    for (object, o) in desc.objects.iter().enumerate() {
+        let at = o.span().start;
+        let o = o.get_ref();
+        let object = object as u32;
+        let what = format!("object {} ({})", object + 1, o.kind_name());
+        let oerr = |msg: String| err(at, format!("{what}: {msg}"));
+        let &m = material_index.get(o.material()).ok_or_else(|| {
+            let mut names: Vec<_> = material_index.keys().copied().collect();
+            names.sort_unstable();
+            oerr(format!(
+                "unknown material '{}' (materials: {})",
+                o.material(),
+                names.join(", ")
+            ))
+        })?;
+        object_material.push(m);
+        let light_radiance = match materials[m as usize] {
+            Material::Light { color, intensity } => Some(color * intensity),
+            _ => None,
+        };
+        let mut id = || {
+            next_id += 1;
+            next_id - 1
+        };
+        let shape = match o {
+            ObjectDesc::Sphere { center, radius, .. } => {
+                if !finite3(*center) || !radius.is_finite() {
+                    return Err(oerr("center and radius must be finite".into()));
+                }
+                if *radius <= 0.0 {
+                    return Err(oerr(format!("radius must be positive, got {radius}")));
+                }
+                spheres.push(Vec3::from(*center), *radius, id(), object);
+                bounds = bounds.union(spheres.bounds(spheres.len() - 1));
+                LightShape::Point(Vec3::from(*center))
+            }
+            ObjectDesc::Quad { corner, u, v, .. } => {
+                if !(finite3(*corner) && finite3(*u) && finite3(*v)) {
+                    return Err(oerr("corner, u and v must be finite".into()));
+                }
+                let q = Quad::new(Vec3::from(*corner), Vec3::from(*u), Vec3::from(*v)).ok_or_else(
+                    || oerr("zero area: u and v must be non-zero and not parallel".into()),
+                )?;
+                quads.push(&q, id(), object);
+                bounds = bounds.union(q.bounds());
+                LightShape::Quads(vec![q])
+            }
+            ObjectDesc::Triangle { a, b, c, .. } => {
+                if !(finite3(*a) && finite3(*b) && finite3(*c)) {
+                    return Err(oerr("vertices must be finite".into()));
+                }
+                let tri = [Vec3::from(*a), Vec3::from(*b), Vec3::from(*c)];
+                if !is_proper_triangle(tri) {
+                    return Err(oerr("zero area: the vertices are collinear".into()));
+                }
+                let start = triangles.len() as u32;
+                triangles.push(tri, id(), object);
+                let tb = Aabb::from_points(&tri);
+                triangle_groups.push(TriangleGroup {
+                    range: start..start + 1,
+                    bounds: tb,
+                    is_mesh: false,
+                });
+                bounds = bounds.union(tb);
+                LightShape::Triangles(vec![tri])
+            }
+            ObjectDesc::Box {
+                corners: [p, q], ..
+            } => {
+                if !(finite3(*p) && finite3(*q)) {
+                    return Err(oerr("corners must be finite".into()));
+                }
+                let (p, q) = (Vec3::from(*p), Vec3::from(*q));
+                let (min, max) = (p.min(q), p.max(q));
+                if !(min.cmplt(max).all()) {
+                    return Err(oerr("the two corners must differ on every axis".into()));
+                }
+                let faces: Vec<Quad> = box_faces(min, max)
+                    .iter()
+                    .filter_map(|&(c, u, v)| Quad::new(c, u, v))
+                    .collect();
+                for f in &faces {
+                    quads.push(f, id(), object);
+                }
+                bounds = bounds.union(Aabb::new(min, max));
+                LightShape::Quads(faces)
+            }
+            ObjectDesc::Mesh { path, .. } => {
+                let (display, text) = read_mesh(source, path).map_err(|e| match e {
+                    Error::Io { path: p, source: s } => oerr(format!("cannot read mesh {p}: {s}")),
+                    other => other,
+                })?;
+                let mesh = mesh::parse_obj(&display, &text)?;
+                degenerate_triangles += mesh.degenerate;
+                let start = triangles.len() as u32;
+                let mut mb = Aabb::EMPTY;
+                for &tri in &mesh.triangles {
+                    triangles.push(tri, id(), object);
+                    mb = mb.union(Aabb::from_points(&tri));
+                }
+                triangle_groups.push(TriangleGroup {
+                    range: start..triangles.len() as u32,
+                    bounds: mb,
+                    is_mesh: true,
+                });
+                bounds = bounds.union(mb);
+                LightShape::Triangles(mesh.triangles)
+            }
+        };
+        if let Some(radiance) = light_radiance {
+            lights.push(Light {
+                object,
+                radiance,
+                shape,
+            });
+        }
+    }
+    if next_id == u32::MAX {
+        return Err(err(0, "too many primitives".into()));
+    }
+
+    let features = Features {
+        has_spheres: !spheres.is_empty(),
+        has_quads: !quads.is_empty(),
+        has_triangles: !triangles.is_empty(),
+        has_point_lights: lights
+            .iter()
+            .any(|l| matches!(l.shape, LightShape::Point(_))),
+        has_area_lights: lights
+            .iter()
+            .any(|l| !matches!(l.shape, LightShape::Point(_))),
+        has_mirror: materials
+            .iter()
+            .any(|m| matches!(m, Material::PhongMirror { .. })),
+        has_path_traced: materials.iter().any(Material::is_path_traced),
+    };
+
+    Ok(Scene {
+        name: source.name.clone(),
+        description: desc.description.clone(),
+        camera,
+        spp: spp as u32,
+        max_depth: max_depth as u32,
+        background,
+        ambient,
+        spheres,
+        quads,
+        triangles,
+        triangle_groups,
+        materials,
+        object_material,
+        lights,
+        features,
+        bounds,
+        degenerate_triangles,
+    })
+}
+
+fn parse_aspect_parts(t: &str) -> Option<(u64, u64)> {
+    let (w, h) = t.split_once(':')?;
+    let (w, h) = (w.trim().parse::<u64>().ok()?, h.trim().parse::<u64>().ok()?);
+    (w > 0 && h > 0 && w <= 1 << 20 && h <= 1 << 20).then_some((w, h))
+}
+
+fn parse_aspect(t: &str) -> Option<f64> {
+    parse_aspect_parts(t).map(|(w, h)| w as f64 / h as f64)
+}
+
+/// The mesh text: an embedded asset for a built-in scene, else a file relative to the
+/// scene file.
+fn read_mesh(source: &SceneSource, path: &str) -> Result<(String, Cow<'static, str>)> {
+    match &source.dir {
+        None => builtin::asset(path)
+            .map(|t| (format!("{path} (built-in)"), Cow::Borrowed(t)))
+            .ok_or_else(|| Error::Io {
+                path: path.to_string(),
+                source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such built-in asset"),
+            }),
+        Some(dir) => {
+            let full = dir.join(path);
+            let display = full.display().to_string();
+            let text = std::fs::read_to_string(&full).map_err(|source| Error::Io {
+                path: display.clone(),
+                source,
+            })?;
+            Ok((display, Cow::Owned(text)))
+        }
+    }
+}
+
+fn compile_material(m: &MaterialDesc) -> Result<Material, String> {
+    let colour = |key: &str, c: [f32; 3]| -> Result<Vec3, String> {
+        if finite3(c) && c.iter().all(|&x| x >= 0.0) {
+            Ok(Vec3::from(c))
+        } else {
+            Err(format!("{key} must be finite and non-negative, got {c:?}"))
+        }
+    };
+    let non_negative = |key: &str, x: f32| -> Result<f32, String> {
+        if x.is_finite() && x >= 0.0 {
+            Ok(x)
+        } else {
+            Err(format!("{key} must be finite and non-negative, got {x}"))
+        }
+    };
+    let positive = |key: &str, x: f32| -> Result<f32, String> {
+        if x.is_finite() && x > 0.0 {
+            Ok(x)
+        } else {
+            Err(format!("{key} must be finite and positive, got {x}"))
+        }
+    };
+    let phong = |albedo, shininess, ka, kd, ks| -> Result<Phong, String> {
+        Ok(Phong {
+            albedo: colour("albedo", albedo)?,
+            shininess: non_negative("shininess", shininess)?,
+            ka: non_negative("ka", ka)?,
+            kd: non_negative("kd", kd)?,
+            ks: non_negative("ks", ks)?,
+        })
+    };
+    Ok(match *m {
+        MaterialDesc::Phong {
+            albedo,
+            shininess,
+            ka,
+            kd,
+            ks,
+        } => Material::Phong(phong(albedo, shininess, ka, kd, ks)?),
+        MaterialDesc::PhongMirror {
+            albedo,
+            shininess,
+            index,
+            ka,
+            kd,
+            ks,
+        } => Material::PhongMirror {
+            phong: phong(albedo, shininess, ka, kd, ks)?,
+            index: positive("index", index)?,
+        },
+        MaterialDesc::Diffuse { albedo } => Material::Diffuse {
+            albedo: colour("albedo", albedo)?,
+        },
+        MaterialDesc::Metal { albedo, fuzz } => Material::Metal {
+            albedo: colour("albedo", albedo)?,
+            fuzz: non_negative("fuzz", fuzz)?.min(1.0),
+        },
+        MaterialDesc::Dielectric { index } => Material::Dielectric {
+            index: positive("index", index)?,
+        },
+        MaterialDesc::Light { color, intensity } => Material::Light {
+            color: colour("color", color)?,
+            intensity: non_negative("intensity", intensity)?,
+        },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn line_and_column() {
+        assert_eq!(line_col("ab\ncd\nef", 0), (1, 1));
+        assert_eq!(line_col("ab\ncd\nef", 4), (2, 2));
+        assert_eq!(line_col("ab\ncd\nef", 6), (3, 1));
+    }
+
+    #[test]
+    fn aspect_text() {
+        assert_eq!(parse_aspect_parts("16:9"), Some((16, 9)));
+        assert_eq!(parse_aspect_parts("16/9"), None);
+        assert_eq!(parse_aspect_parts("0:9"), None);
+    }
+}
