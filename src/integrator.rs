@@ -6,15 +6,18 @@
 //! - Every random number comes from `rng::SampleKey`, addressed by path vertex and slot.
 
 use crate::accel::Accel;
+use crate::geometry::spawn::{planar_point, spawn_ray, sphere_point, ErrorPoint};
 use crate::geometry::{Hit, PrimKind, Ray};
 use crate::material::{random_unit_vector, reflect, refract, schlick, Material, Phong};
 use crate::rng::{slot, SampleKey};
 use crate::scene::{LightShape, Scene};
 use glam::Vec3;
 
-/// The seed's only self-intersection guard: hits closer than this are ignored, for every
-/// kind of ray.
-pub const T_MIN: f32 = 1e-4;
+/// Rays accept hits at t > 0 (the smallest positive normal float; the tests compare with
+/// `>=`): secondary rays start off their surface by the hit point's error bound
+/// (`geometry::spawn`) instead of the seed's t_min = 1e-4. A surface whose error bound is
+/// zero (a wall in the plane x = 0) yields t = 0 for its own spawned rays, excluded here.
+pub const T_MIN: f32 = f32::MIN_POSITIVE;
 
 /// Rays traced, by kind.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -40,7 +43,8 @@ impl RayCounts {
 /// Where a ray met a surface.
 #[derive(Clone, Copy, Debug)]
 pub struct Surface {
-    pub point: Vec3,
+    /// The hit point, recomputed from the primitive, with its error bound.
+    pub point: ErrorPoint,
     /// Unit geometric normal flipped to face the incoming ray (surfaces are two-sided).
     pub normal: Vec3,
     /// The ray arrived on the side the outward normal points to.
@@ -78,12 +82,26 @@ impl<'a> Tracer<'a> {
 
     /// Position, facing normal and side of a hit.
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
-        let point = ray.at(hit.t);
+        let on_ray = ray.at(hit.t);
         let i = hit.index as usize;
-        let outward = match hit.kind {
-            PrimKind::Sphere => self.scene.spheres.normal(i, point),
-            PrimKind::Quad => self.scene.quads.normal(i),
-            PrimKind::Triangle => self.scene.triangles.normal(i),
+        let scene = self.scene;
+        let (point, outward) = match hit.kind {
+            PrimKind::Sphere => {
+                let (c, r) = (scene.spheres.center(i), scene.spheres.radius[i]);
+                let p = sphere_point(c, r, on_ray);
+                (p, scene.spheres.normal(i, p.point))
+            }
+            PrimKind::Quad => {
+                let q = scene.quads.get(i);
+                (planar_point(q.corner, q.u, q.v, q.w, on_ray), q.normal)
+            }
+            PrimKind::Triangle => {
+                let [a, b, c] = scene.triangles.vertices(i);
+                let (u, v) = (b - a, c - a);
+                let n = u.cross(v);
+                let p = planar_point(a, u, v, n / n.dot(n), on_ray);
+                (p, scene.triangles.normal(i))
+            }
         };
         let front_face = ray.dir.dot(outward) < 0.0;
         Surface {
@@ -136,7 +154,7 @@ impl<'a> Tracer<'a> {
                     dielectric_direction(&ray, &surface, index, key, vertex)
                 }
             };
-            ray = Ray::new(surface.point, next_dir);
+            ray = spawn_ray(&surface.point, surface.normal, next_dir);
             counts.secondary += 1;
             depth -= 1;
             vertex += 1;
@@ -169,13 +187,13 @@ impl<'a> Tracer<'a> {
                         light.sample(u(0), u(1), u(2))
                     }
                 };
-                let l = (target - s.point).normalize_or_zero();
+                let l = (target - s.point.point).normalize_or_zero();
                 if l == Vec3::ZERO {
                     continue;
                 }
                 counts.shadow += 1;
                 let visible = self
-                    .closest_hit(&Ray::new(s.point, l))
+                    .closest_hit(&spawn_ray(&s.point, s.normal, l))
                     .is_some_and(|h| h.object == light.object);
                 if !visible {
                     continue;
@@ -206,7 +224,7 @@ impl<'a> Tracer<'a> {
         counts: &mut RayCounts,
     ) -> Vec3 {
         let local = self.phong(m, ray, s, key, vertex, counts);
-        let reflected_ray = Ray::new(s.point, reflect(ray.dir, s.normal).normalize());
+        let reflected_ray = spawn_ray(&s.point, s.normal, reflect(ray.dir, s.normal).normalize());
         counts.secondary += 1;
         let reflected = self.evaluate_once(&reflected_ray, key, vertex + 1, budget - 1, counts);
         let cosine = (-ray.dir.dot(s.normal)).min(1.0);
@@ -293,7 +311,10 @@ mod tests {
     #[test]
     fn dielectric_at_normal_incidence_passes_straight_through() {
         let s = Surface {
-            point: Vec3::ZERO,
+            point: ErrorPoint {
+                point: Vec3::ZERO,
+                error: Vec3::ZERO,
+            },
             normal: Vec3::Z,
             front_face: true,
             object: 0,

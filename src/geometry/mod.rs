@@ -11,6 +11,7 @@
 
 pub mod aabb;
 pub mod quad;
+pub mod spawn;
 pub mod sphere;
 pub mod triangle;
 
