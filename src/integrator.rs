@@ -71,7 +71,7 @@ impl<'a> Tracer<'a> {
         let jy = key.uniform(0, slot::JITTER_Y);
         let ray = self.scene.camera.ray(x, y, jx, jy);
         counts.camera += 1;
-        self.radiance(ray, key, counts)
+        self.trace(ray, key, counts)
     }
 
     #[inline]
@@ -112,8 +112,9 @@ impl<'a> Tracer<'a> {
         }
     }
 
-    /// Trace a camera ray; path-traced materials continue the path up to `max_depth`.
-    fn radiance(&self, mut ray: Ray, key: SampleKey, counts: &mut RayCounts) -> Vec3 {
+    /// The colour a camera ray sees; path-traced materials continue the path up to
+    /// `max_depth`.
+    pub fn trace(&self, mut ray: Ray, key: SampleKey, counts: &mut RayCounts) -> Vec3 {
         let scene = self.scene;
         let mut throughput = Vec3::ONE;
         let mut vertex = 0u32;
@@ -126,7 +127,8 @@ impl<'a> Tracer<'a> {
                 return throughput * scene.background;
             };
             let surface = self.surface(&ray, &hit);
-            let next_dir = match *scene.material_of(hit.object) {
+            let material = scene.material_of(hit.object);
+            let next_dir = match *material {
                 Material::Light { color, .. } => return throughput * color,
                 Material::Phong(ref phong) => {
                     return throughput * self.phong(phong, &ray, &surface, key, vertex, counts)
@@ -136,23 +138,14 @@ impl<'a> Tracer<'a> {
                         self.phong_mirror(phong, index, &ray, &surface, key, vertex, depth, counts);
                     return throughput * c;
                 }
-                Material::Diffuse { albedo } => {
-                    throughput *= albedo;
-                    diffuse_direction(surface.normal, key, vertex)
-                }
-                Material::Metal { albedo, fuzz } => {
-                    match metal_direction(&ray, &surface, fuzz, key, vertex) {
-                        Some(d) => {
-                            throughput *= albedo;
-                            d
-                        }
-                        // Absorbed: black (the seed returned the albedo here).
-                        None => return Vec3::ZERO,
+                _ => match scatter(material, &ray, &surface, key, vertex) {
+                    Some((attenuation, dir)) => {
+                        throughput *= attenuation;
+                        dir
                     }
-                }
-                Material::Dielectric { index } => {
-                    dielectric_direction(&ray, &surface, index, key, vertex)
-                }
+                    // Absorbed by Metal: black (the seed returned the albedo here).
+                    None => return Vec3::ZERO,
+                },
             };
             ray = spawn_ray(&surface.point, surface.normal, next_dir);
             counts.secondary += 1;
@@ -259,6 +252,27 @@ impl<'a> Tracer<'a> {
             Material::Diffuse { albedo } | Material::Metal { albedo, .. } => albedo,
             Material::Dielectric { .. } => Vec3::ONE,
         }
+    }
+}
+
+/// The bounce of a path-traced material (Diffuse, Metal, Dielectric): attenuation and new
+/// direction, or `None` when Metal absorbs the ray or the material does not scatter.
+pub fn scatter(
+    m: &Material,
+    ray: &Ray,
+    s: &Surface,
+    key: SampleKey,
+    vertex: u32,
+) -> Option<(Vec3, Vec3)> {
+    match *m {
+        Material::Diffuse { albedo } => Some((albedo, diffuse_direction(s.normal, key, vertex))),
+        Material::Metal { albedo, fuzz } => {
+            metal_direction(ray, s, fuzz, key, vertex).map(|d| (albedo, d))
+        }
+        Material::Dielectric { index } => {
+            Some((Vec3::ONE, dielectric_direction(ray, s, index, key, vertex)))
+        }
+        _ => None,
     }
 }
 
