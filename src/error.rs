@@ -8,7 +8,8 @@ pub enum Error {
     #[error("unknown scene '{name}': not a built-in scene and no such file (built-in scenes: {available})")]
     UnknownScene { name: String, available: String },
 
-    #[error("{path}: {source}")]
+    /// The reason is the source, which `{:#}` prints after the path.
+    #[error("cannot read {path}")]
     Io {
         path: String,
         #[source]

@@ -108,6 +108,16 @@ pub fn write_atomically(
         .suffix(".tmp")
         .tempfile_in(parent_dir(path))
         .map_err(fail)?;
+    // tempfile creates 0600; give the result the permissions of the file it replaces, or
+    // the usual 0644 for a new file.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let permissions = std::fs::metadata(path)
+            .map(|m| m.permissions())
+            .unwrap_or_else(|_| std::fs::Permissions::from_mode(0o644));
+        tmp.as_file().set_permissions(permissions).map_err(fail)?;
+    }
     {
         let mut out = std::io::BufWriter::new(tmp.as_file());
         write(&mut out).map_err(fail)?;

@@ -79,12 +79,22 @@ impl SceneSource {
     /// Parse the TOML into a description; syntax errors and unknown keys name line and column.
     pub fn parse(&self) -> Result<SceneDesc> {
         toml::from_str(&self.text).map_err(|e| {
-            let (line, column) = e.span().map_or((0, 0), |s| line_col(&self.text, s.start));
+            let (line, column) = e.span().map_or((0, 0), |s| {
+                let at = unknown_key_offset(&self.text, e.message(), s.clone());
+                line_col(&self.text, at.unwrap_or(s.start))
+            });
+            // toml's syntax messages span several lines ("invalid table header\nexpected ..").
+            let message: Vec<&str> = e
+                .message()
+                .lines()
+                .map(str::trim)
+                .filter(|l| !l.is_empty())
+                .collect();
             Error::Scene {
                 path: self.display.clone(),
                 line,
                 column,
-                message: e.message().trim().to_string(),
+                message: message.join(", "),
             }
         })
     }
@@ -98,6 +108,24 @@ impl SceneSource {
             message: message.into(),
         }
     }
+}
+
+/// serde reads a material or object table (internally tagged) as a whole, so toml puts an
+/// unknown key at the table's header; this finds the line inside `span` that sets the key.
+fn unknown_key_offset(text: &str, message: &str, span: Range<usize>) -> Option<usize> {
+    let key = message.strip_prefix("unknown field `")?.split('`').next()?;
+    let mut offset = span.start;
+    for line in text.get(span)?.split_inclusive('\n') {
+        let t = line.trim_start();
+        let sets_key = t
+            .strip_prefix(key)
+            .is_some_and(|rest| rest.trim_start().starts_with('='));
+        if sets_key {
+            return Some(offset + line.len() - t.len());
+        }
+        offset += line.len();
+    }
+    None
 }
 
 /// 1-based line and column of a byte offset.
@@ -272,20 +300,22 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
         ));
     }
     let height = match &cam.aspect_ratio {
-        // "W:H" is exact in integers: 800 at 16:9 is 450.
+        // "W:H" is exact in integers: 800 at 16:9 is 450. Up to 2^36, so kept in u64.
         AspectDesc::Text(t) => {
             let (w, h) = parse_aspect_parts(t).unwrap_or((1, 1));
-            ((width as u64 * h / w) as u32).max(1)
+            (width as u64 * h / w).max(1)
         }
-        AspectDesc::Ratio(_) => image_height(width, aspect),
+        AspectDesc::Ratio(_) => image_height(width, aspect) as u64,
     };
-    if height > 65_536 || (width as u64) * (height as u64) > MAX_PIXELS {
-        return Err(Error::ImageTooLarge {
-            width,
-            height,
-            bytes: width as u128 * height as u128 * 12,
-        });
+    if height > 65_536 || width as u64 * height > MAX_PIXELS {
+        return Err(err(
+            cam_at,
+            format!(
+                "image {width}x{height} is too large (at most 65536 a side, {MAX_PIXELS} pixels)"
+            ),
+        ));
     }
+    let height = height as u32;
     let spp = match overrides.spp {
         Some(s) => s as i64,
         None => cam.samples_per_pixel,
