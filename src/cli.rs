@@ -54,8 +54,13 @@ pub struct Args {
     pub packet_width: u32,
 
     /// Acceleration structure.
-    #[arg(long, value_enum, default_value_t = AccelKind::Linear)]
+    #[arg(long, value_enum, default_value_t = AccelKind::Bvh)]
     pub accel: AccelKind,
+
+    /// Print what the acceleration structure holds, its build time, and the boxes
+    /// visited and primitives tested per ray.
+    #[arg(long)]
+    pub stats: bool,
 
     /// List the built-in scenes and exit.
     #[arg(long)]
@@ -162,18 +167,15 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
             args.packet_width
         );
     }
-    if args.accel == AccelKind::Bvh && notes {
-        eprintln!("note: the BVH is not built yet; --accel bvh runs as linear");
-    }
 
     let overrides = Overrides {
         width: args.width,
         spp: args.spp,
         max_depth: args.max_depth,
     };
-    let scene = Scene::load(scene_arg, overrides)?;
+    let mut scene = Scene::load(scene_arg, overrides)?;
     let loaded = Instant::now();
-    let accel = Accel::build(&scene, args.accel);
+    let accel = Accel::build(&mut scene, args.accel);
     let built = Instant::now();
 
     let threads = args.threads.map_or_else(num_threads, |t| t as usize);
@@ -236,6 +238,20 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
             use std::io::Write;
             writeln!(out, "{json}")
         })?;
+    }
+    if args.stats {
+        let t = counts.traversal;
+        let per_ray = |x: u64| x as f64 / counts.total().max(1) as f64;
+        eprintln!("stats: {}", accel.describe(&scene));
+        eprintln!("stats: build {:.3} ms", secs(loaded, built) * 1e3);
+        eprintln!(
+            "stats: rays: {} camera, {} shadow, {} secondary; per ray {:.2} boxes visited, {:.2} primitives tested",
+            counts.camera,
+            counts.shadow,
+            counts.secondary,
+            per_ray(t.nodes),
+            per_ray(t.prims)
+        );
     }
     if notes {
         let bad = rendered.film.non_finite_count();

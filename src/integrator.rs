@@ -5,7 +5,7 @@
 //! - Diffuse, Metal and Dielectric scatter and the path continues, up to `max_depth`.
 //! - Every random number comes from `rng::SampleKey`, addressed by path vertex and slot.
 
-use crate::accel::Accel;
+use crate::accel::{Accel, TraversalStats};
 use crate::geometry::spawn::{planar_point, spawn_ray, sphere_point, ErrorPoint};
 use crate::geometry::{Hit, PrimKind, Ray};
 use crate::material::{random_unit_vector, reflect, refract, schlick, Material, Phong};
@@ -19,13 +19,14 @@ use glam::Vec3;
 /// zero (a wall in the plane x = 0) yields t = 0 for its own spawned rays, excluded here.
 pub const T_MIN: f32 = f32::MIN_POSITIVE;
 
-/// Rays traced, by kind.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+/// Rays traced, by kind, and the traversal work they took.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RayCounts {
     pub camera: u64,
     pub shadow: u64,
     /// Mirror reflections and path-traced bounces.
     pub secondary: u64,
+    pub traversal: TraversalStats,
 }
 
 impl RayCounts {
@@ -37,6 +38,7 @@ impl RayCounts {
         self.camera += o.camera;
         self.shadow += o.shadow;
         self.secondary += o.secondary;
+        self.traversal.add(&o.traversal);
     }
 }
 
@@ -75,9 +77,9 @@ impl<'a> Tracer<'a> {
     }
 
     #[inline]
-    pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+    pub fn closest_hit(&self, ray: &Ray, counts: &mut RayCounts) -> Option<Hit> {
         self.accel
-            .closest_hit(self.scene, ray, T_MIN, f32::INFINITY)
+            .closest_hit(self.scene, ray, T_MIN, f32::INFINITY, &mut counts.traversal)
     }
 
     /// Position, facing normal and side of a hit.
@@ -123,7 +125,7 @@ impl<'a> Tracer<'a> {
             if depth == 0 {
                 return Vec3::ZERO;
             }
-            let Some(hit) = self.closest_hit(&ray) else {
+            let Some(hit) = self.closest_hit(&ray, counts) else {
                 return throughput * scene.background;
             };
             let surface = self.surface(&ray, &hit);
@@ -174,7 +176,7 @@ impl<'a> Tracer<'a> {
             let mut light_specular = Vec3::ZERO;
             for k in 0..n {
                 let target = match light.shape {
-                    LightShape::Point(p) => p,
+                    LightShape::Point { center, .. } => center,
                     _ => {
                         let u = |c| key.uniform(vertex, slot::light(li as u32, k, c));
                         light.sample(u(0), u(1), u(2))
@@ -185,9 +187,14 @@ impl<'a> Tracer<'a> {
                     continue;
                 }
                 counts.shadow += 1;
-                let visible = self
-                    .closest_hit(&spawn_ray(&s.point, s.normal, l))
-                    .is_some_and(|h| h.object == light.object);
+                let shadow_ray = spawn_ray(&s.point, s.normal, l);
+                let visible = self.accel.light_visible(
+                    self.scene,
+                    &shadow_ray,
+                    T_MIN,
+                    light,
+                    &mut counts.traversal,
+                );
                 if !visible {
                     continue;
                 }
@@ -239,7 +246,7 @@ impl<'a> Tracer<'a> {
         if budget == 0 {
             return Vec3::ZERO;
         }
-        let Some(hit) = self.closest_hit(ray) else {
+        let Some(hit) = self.closest_hit(ray, counts) else {
             return self.scene.background;
         };
         let s = self.surface(ray, &hit);

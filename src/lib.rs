@@ -8,6 +8,7 @@ pub mod accel;
 pub mod camera;
 pub mod cli;
 pub mod error;
+pub mod generate;
 pub mod geometry;
 pub mod integrator;
 pub mod material;

@@ -82,7 +82,17 @@ fn seed_linear(v: u8) -> f64 {
 fn looks_like_the_seed_render() {
     const MAX_BLOCK: f64 = 5.0;
     const MEAN_BLOCK: f64 = 0.8;
-    for name in builtin::names() {
+    // Every scene of the seed; `bunny-closeup` is ours and has no seed render.
+    let seed_scenes = [
+        "bunny",
+        "cornell",
+        "cornell-area-light",
+        "cornell-point-light",
+        "mixed",
+        "quads",
+        "spheres",
+    ];
+    for name in seed_scenes {
         let path = format!(
             "{}/tests/data/seed-renders/{name}.png",
             env!("CARGO_MANIFEST_DIR")

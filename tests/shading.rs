@@ -47,8 +47,8 @@ material = "floor"
 
 #[test]
 fn phong_on_a_plane_under_a_point_light() {
-    let scene = scene_from_toml(PHONG_PLANE);
-    let accel = Accel::build(&scene, AccelKind::Linear);
+    let mut scene = scene_from_toml(PHONG_PLANE);
+    let accel = Accel::build(&mut scene, AccelKind::Bvh);
     let tracer = Tracer::new(&scene, &accel, 0);
     let mut counts = RayCounts::default();
     for (x, eye_height, eye_x) in [(0.3f64, 2.0f64, -0.5f64), (0.0, 1.5, 0.2), (1.2, 3.0, 0.7)] {
@@ -81,9 +81,9 @@ fn phong_on_a_plane_under_a_point_light() {
 fn light_behind_an_open_quad_still_gives_the_seed_specular() {
     // The seed does not gate the specular term by N·L > 0: a light under an open quad
     // lights its top side with specular only (the shadow ray passes the quad's own plane).
-    let scene =
+    let mut scene =
         scene_from_toml(&PHONG_PLANE.replace("center = [0, 1, 0]", "center = [1, -0.05, 0]"));
-    let accel = Accel::build(&scene, AccelKind::Linear);
+    let accel = Accel::build(&mut scene, AccelKind::Bvh);
     let tracer = Tracer::new(&scene, &accel, 0);
     let eye = DVec3::new(-1.0, 1.0, 0.0);
     let p = DVec3::new(0.5, 0.0, 0.0);
@@ -137,8 +137,8 @@ u = [200, 0, 0]
 v = [0, 0, 200]
 material = "ceiling"
 "#;
-    let scene = scene_from_toml(text);
-    let accel = Accel::build(&scene, AccelKind::Linear);
+    let mut scene = scene_from_toml(text);
+    let accel = Accel::build(&mut scene, AccelKind::Bvh);
     let tracer = Tracer::new(&scene, &accel, 0);
     let local = DVec3::new(0.8, 0.4, 0.2) * 0.5 * 0.5;
     for angle_deg in [10.0f64, 45.0, 80.0] {
@@ -159,9 +159,9 @@ material = "ceiling"
         );
     }
     // Without the ceiling the reflection sees the background.
-    let open =
+    let mut open =
         scene_from_toml(&text.replace("corner = [-100, 5, -100]", "corner = [-100, -5, -100]"));
-    let accel = Accel::build(&open, AccelKind::Linear);
+    let accel = Accel::build(&mut open, AccelKind::Bvh);
     let tracer = Tracer::new(&open, &accel, 0);
     let d = DVec3::new(0.6, -0.8, 0.0);
     let got = tracer.trace(
@@ -188,8 +188,8 @@ center = [0, 0, 0]
 radius = 1
 material = "glass"
 "#;
-    let scene = scene_from_toml(text);
-    let accel = Accel::build(&scene, AccelKind::Linear);
+    let mut scene = scene_from_toml(text);
+    let accel = Accel::build(&mut scene, AccelKind::Bvh);
     let tracer = Tracer::new(&scene, &accel, 0);
     let glass = scene.materials[0];
     for h in [0.1f64, 0.3, 0.5] {
@@ -202,7 +202,9 @@ material = "glass"
         let mut checked = false;
         for k in 0..64u32 {
             let key = SampleKey(k);
-            let hit = tracer.closest_hit(&ray).expect("hits the sphere");
+            let hit = tracer
+                .closest_hit(&ray, &mut RayCounts::default())
+                .expect("hits the sphere");
             let s1 = tracer.surface(&ray, &hit);
             let (att, d1) = scatter(&glass, &ray, &s1, key, 0).unwrap();
             assert_eq!(att, Vec3::ONE);
@@ -219,7 +221,9 @@ material = "glass"
                 "h {h}: bend {bend}"
             );
             let inner = spawn_ray(&s1.point, s1.normal, d1);
-            let hit2 = tracer.closest_hit(&inner).expect("hits the far side");
+            let hit2 = tracer
+                .closest_hit(&inner, &mut RayCounts::default())
+                .expect("hits the far side");
             let s2 = tracer.surface(&inner, &hit2);
             assert!(!s2.front_face);
             // The chord inside has length 2 cos θt.
@@ -268,8 +272,8 @@ u = [0, 0, 20]
 v = [20, 0, 0]
 material = "metal"
 "#;
-    let scene = scene_from_toml(text);
-    let accel = Accel::build(&scene, AccelKind::Linear);
+    let mut scene = scene_from_toml(text);
+    let accel = Accel::build(&mut scene, AccelKind::Bvh);
     let tracer = Tracer::new(&scene, &accel, 0);
     let ray = Ray::new(
         Vec3::new(0.0, 0.01, 0.0),

@@ -1,49 +1,178 @@
-//! The brute-force scan: the seed's algorithm, kept to measure the BVH against.
+//! The brute-force scan, the seed's algorithm, kept to measure the BVH against; and the
+//! per-kind primitive loops that the BVH's leaves share with it.
 
+use super::TraversalStats;
 use crate::geometry::aabb::SlabRay;
 use crate::geometry::triangle::WatertightRay;
-use crate::geometry::{keep_closest, Hit, PrimKind, Ray};
+use crate::geometry::{keep_closest, Aabb, Hit, PrimKind, Ray};
 use crate::scene::Scene;
+use std::ops::Range;
 
-/// Test every primitive; a mesh's triangles only when its bounding box overlaps
-/// `[t_min, closest so far]`.
-pub fn closest_hit(scene: &Scene, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-    let mut best: Option<Hit> = None;
-    let mut t_max = t_max;
-    let s = &scene.spheres;
-    for i in 0..s.len() {
-        if let Some(t) = s.intersect(i, ray, t_min, t_max) {
-            keep_closest(&mut best, hit(t, s.id[i], PrimKind::Sphere, i, s.object[i]));
-            t_max = best.map_or(t_max, |b| b.t);
-        }
-    }
-    let q = &scene.quads;
-    for i in 0..q.len() {
-        if let Some(t) = q.intersect(i, ray, t_min, t_max) {
-            keep_closest(&mut best, hit(t, q.id[i], PrimKind::Quad, i, q.object[i]));
-            t_max = best.map_or(t_max, |b| b.t);
-        }
-    }
-    if !scene.triangles.is_empty() {
+/// Triangles grouped by object: a mesh (more than one triangle) is tested only when its
+/// bounding box is hit, as the seed did.
+#[derive(Clone, Debug)]
+pub struct LinearScan {
+    groups: Vec<TriangleGroup>,
+}
+
+#[derive(Clone, Debug)]
+struct TriangleGroup {
+    indices: Vec<u32>,
+    bounds: Aabb,
+}
+
+impl LinearScan {
+    pub fn build(scene: &Scene) -> LinearScan {
+        let mut groups: Vec<TriangleGroup> = Vec::new();
         let tri = &scene.triangles;
+        let mut by_object = std::collections::BTreeMap::<u32, usize>::new();
+        for i in 0..tri.len() {
+            let g = *by_object.entry(tri.object[i]).or_insert_with(|| {
+                groups.push(TriangleGroup {
+                    indices: Vec::new(),
+                    bounds: Aabb::EMPTY,
+                });
+                groups.len() - 1
+            });
+            groups[g].indices.push(i as u32);
+            groups[g].bounds = groups[g].bounds.union(tri.bounds(i));
+        }
+        LinearScan { groups }
+    }
+
+    pub fn closest_hit(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        stats: &mut TraversalStats,
+    ) -> Option<Hit> {
+        let mut best = None;
+        let mut t_max = t_max;
         let wray = WatertightRay::new(ray);
-        let slab = SlabRay::new(ray);
-        for group in &scene.triangle_groups {
-            if group.is_mesh && group.bounds.hit(&slab, t_min, t_max).is_none() {
-                continue;
+        for kind in [PrimKind::Sphere, PrimKind::Quad] {
+            let n = if kind == PrimKind::Sphere {
+                scene.spheres.len()
+            } else {
+                scene.quads.len()
+            };
+            stats.prims += n as u64;
+            intersect_range(scene, kind, 0..n, ray, &wray, t_min, &mut t_max, &mut best);
+        }
+        if !self.groups.is_empty() {
+            let slab = SlabRay::new(ray);
+            let tri = &scene.triangles;
+            for g in &self.groups {
+                if g.indices.len() > 1 {
+                    stats.nodes += 1;
+                    if g.bounds.hit(&slab, t_min, t_max).is_none() {
+                        continue;
+                    }
+                }
+                stats.prims += g.indices.len() as u64;
+                for &i in &g.indices {
+                    let i = i as usize;
+                    if let Some(t) = tri.intersect(i, &wray, t_min, t_max) {
+                        keep_closest(
+                            &mut best,
+                            hit(t, tri.id[i], PrimKind::Triangle, i, tri.object[i]),
+                        );
+                        t_max = t;
+                    }
+                }
             }
-            for i in group.range.start as usize..group.range.end as usize {
-                if let Some(t) = tri.intersect(i, &wray, t_min, t_max) {
-                    keep_closest(
-                        &mut best,
-                        hit(t, tri.id[i], PrimKind::Triangle, i, tri.object[i]),
-                    );
-                    t_max = best.map_or(t_max, |b| b.t);
+        }
+        best
+    }
+}
+
+/// Closest-hit over `range` of one kind's pool, shrinking `t_max` as hits are found.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn intersect_range(
+    scene: &Scene,
+    kind: PrimKind,
+    range: Range<usize>,
+    ray: &Ray,
+    wray: &WatertightRay,
+    t_min: f32,
+    t_max: &mut f32,
+    best: &mut Option<Hit>,
+) {
+    match kind {
+        PrimKind::Sphere => {
+            let s = &scene.spheres;
+            for i in range {
+                if let Some(t) = s.intersect(i, ray, t_min, *t_max) {
+                    keep_closest(best, hit(t, s.id[i], kind, i, s.object[i]));
+                    *t_max = t;
+                }
+            }
+        }
+        PrimKind::Quad => {
+            let q = &scene.quads;
+            for i in range {
+                if let Some(t) = q.intersect(i, ray, t_min, *t_max) {
+                    keep_closest(best, hit(t, q.id[i], kind, i, q.object[i]));
+                    *t_max = t;
+                }
+            }
+        }
+        PrimKind::Triangle => {
+            let tri = &scene.triangles;
+            for i in range {
+                if let Some(t) = tri.intersect(i, wray, t_min, *t_max) {
+                    keep_closest(best, hit(t, tri.id[i], kind, i, tri.object[i]));
+                    *t_max = t;
                 }
             }
         }
     }
-    best
+}
+
+/// Does a primitive in `range` of another object than `object` beat `(t_light, id_light)`?
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn occludes_range(
+    scene: &Scene,
+    kind: PrimKind,
+    range: Range<usize>,
+    ray: &Ray,
+    wray: &WatertightRay,
+    t_min: f32,
+    t_light: f32,
+    id_light: u32,
+    object: u32,
+) -> bool {
+    let beats = |t: f32, id: u32| t < t_light || id < id_light;
+    match kind {
+        PrimKind::Sphere => {
+            let s = &scene.spheres;
+            range.into_iter().any(|i| {
+                s.object[i] != object
+                    && s.intersect(i, ray, t_min, t_light)
+                        .is_some_and(|t| beats(t, s.id[i]))
+            })
+        }
+        PrimKind::Quad => {
+            let q = &scene.quads;
+            range.into_iter().any(|i| {
+                q.object[i] != object
+                    && q.intersect(i, ray, t_min, t_light)
+                        .is_some_and(|t| beats(t, q.id[i]))
+            })
+        }
+        PrimKind::Triangle => {
+            let tri = &scene.triangles;
+            range.into_iter().any(|i| {
+                tri.object[i] != object
+                    && tri
+                        .intersect(i, wray, t_min, t_light)
+                        .is_some_and(|t| beats(t, tri.id[i]))
+            })
+        }
+    }
 }
 
 #[inline]

@@ -74,6 +74,11 @@ impl Hit {
     }
 }
 
+/// Reorder `v` so that `v[new] = old_v[order[new]]`.
+pub fn permute<T: Copy>(v: &mut Vec<T>, order: &[u32]) {
+    *v = order.iter().map(|&i| v[i as usize]).collect();
+}
+
 /// Keep `candidate` in `best` if it is closer by the `(t, id)` rule.
 #[inline]
 pub fn keep_closest(best: &mut Option<Hit>, candidate: Hit) {

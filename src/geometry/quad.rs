@@ -130,6 +130,32 @@ impl QuadPool {
         self.object.push(object);
     }
 
+    /// Reorder (see `geometry::permute`).
+    pub fn permute(&mut self, order: &[u32]) {
+        for v in [
+            &mut self.qx,
+            &mut self.qy,
+            &mut self.qz,
+            &mut self.ux,
+            &mut self.uy,
+            &mut self.uz,
+            &mut self.vx,
+            &mut self.vy,
+            &mut self.vz,
+            &mut self.nx,
+            &mut self.ny,
+            &mut self.nz,
+            &mut self.plane_d,
+            &mut self.wx,
+            &mut self.wy,
+            &mut self.wz,
+        ] {
+            super::permute(v, order);
+        }
+        super::permute(&mut self.id, order);
+        super::permute(&mut self.object, order);
+    }
+
     #[inline]
     pub fn get(&self, i: usize) -> Quad {
         Quad {

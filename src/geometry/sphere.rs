@@ -36,6 +36,15 @@ impl SpherePool {
         self.object.push(object);
     }
 
+    /// Reorder (see `geometry::permute`).
+    pub fn permute(&mut self, order: &[u32]) {
+        for v in [&mut self.cx, &mut self.cy, &mut self.cz, &mut self.radius] {
+            super::permute(v, order);
+        }
+        super::permute(&mut self.id, order);
+        super::permute(&mut self.object, order);
+    }
+
     #[inline]
     pub fn center(&self, i: usize) -> Vec3 {
         Vec3::new(self.cx[i], self.cy[i], self.cz[i])

@@ -48,6 +48,25 @@ impl TrianglePool {
         self.object.push(object);
     }
 
+    /// Reorder (see `geometry::permute`).
+    pub fn permute(&mut self, order: &[u32]) {
+        for v in [
+            &mut self.ax,
+            &mut self.ay,
+            &mut self.az,
+            &mut self.bx,
+            &mut self.by,
+            &mut self.bz,
+            &mut self.cx,
+            &mut self.cy,
+            &mut self.cz,
+        ] {
+            super::permute(v, order);
+        }
+        super::permute(&mut self.id, order);
+        super::permute(&mut self.object, order);
+    }
+
     #[inline]
     pub fn vertices(&self, i: usize) -> [Vec3; 3] {
         [

@@ -4,6 +4,10 @@
 /// (name, scene file text). Names are the file stems in `scenes/`.
 pub const SCENES: &[(&str, &str)] = &[
     ("bunny", include_str!("../../scenes/bunny.toml")),
+    (
+        "bunny-closeup",
+        include_str!("../../scenes/bunny-closeup.toml"),
+    ),
     ("cornell", include_str!("../../scenes/cornell.toml")),
     (
         "cornell-area-light",

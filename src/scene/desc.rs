@@ -168,8 +168,14 @@ pub enum ObjectDesc {
     },
     /// An axis-aligned box given by two opposite corners.
     Box { corners: [V3; 2], material: String },
-    /// An OBJ mesh, path relative to the scene file.
-    Mesh { path: String, material: String },
+    /// An OBJ mesh, path relative to the scene file, optionally split 1-to-4 at its edge
+    /// midpoints `subdivide` times (for tests and benchmarks of large meshes).
+    Mesh {
+        path: String,
+        #[serde(default)]
+        subdivide: u32,
+        material: String,
+    },
 }
 
 impl ObjectDesc {

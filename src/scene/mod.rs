@@ -12,8 +12,9 @@ pub mod mesh;
 use crate::camera::{image_height, Camera};
 use crate::error::{Error, Result};
 use crate::geometry::quad::{box_faces, Quad};
-use crate::geometry::triangle::is_proper_triangle;
-use crate::geometry::{Aabb, QuadPool, SpherePool, TrianglePool};
+use crate::geometry::sphere::sphere_intersect;
+use crate::geometry::triangle::{is_proper_triangle, WatertightRay};
+use crate::geometry::{Aabb, QuadPool, Ray, SpherePool, TrianglePool};
 use crate::material::{Material, Phong};
 use desc::{AspectDesc, MaterialDesc, ObjectDesc, SceneDesc};
 use glam::{DVec3, Vec3};
@@ -24,6 +25,9 @@ use std::path::{Path, PathBuf};
 
 /// Samples per area light (quad, triangle, box or mesh light), as in the seed.
 pub const AREA_LIGHT_SAMPLES: u32 = 10;
+
+/// Most 1-to-4 subdivisions of a mesh (4⁶ = 4096 times the triangles).
+pub const MAX_SUBDIVIDE: u32 = 6;
 
 /// The largest image the renderer accepts, in pixels (the film alone needs 12 bytes a pixel).
 pub const MAX_PIXELS: u64 = 1 << 28;
@@ -167,7 +171,10 @@ impl Features {
 /// The shape a light is sampled on. A sphere light is a point light at its centre.
 #[derive(Clone, Debug, PartialEq)]
 pub enum LightShape {
-    Point(Vec3),
+    Point {
+        center: Vec3,
+        radius: f32,
+    },
     /// One quad, or the six faces of a box: a face is picked uniformly, then a point on it.
     Quads(Vec<Quad>),
     /// One triangle, or a mesh's triangles: one is picked uniformly by index.
@@ -180,14 +187,23 @@ pub struct Light {
     pub object: u32,
     /// colour · intensity (no distance fall-off, as in the seed).
     pub radiance: Vec3,
+    /// A copy of the object's primitives (they keep the pools' exact values, so the same
+    /// kernels give the same distances as the pools do).
     pub shape: LightShape,
+    /// Scene-wide id of the shape's first primitive; the others follow in order.
+    pub first_id: u32,
 }
 
 impl Light {
+    pub fn is_point(&self) -> bool {
+        matches!(self.shape, LightShape::Point { .. })
+    }
+
     pub fn samples(&self) -> u32 {
-        match self.shape {
-            LightShape::Point(_) => 1,
-            _ => AREA_LIGHT_SAMPLES,
+        if self.is_point() {
+            1
+        } else {
+            AREA_LIGHT_SAMPLES
         }
     }
 
@@ -199,22 +215,48 @@ impl Light {
             ((pick * n as f32) as usize).min(n - 1)
         }
         match &self.shape {
-            LightShape::Point(p) => *p,
+            LightShape::Point { center, .. } => *center,
             LightShape::Quads(qs) => qs[index(pick, qs.len())].sample(xi1, xi2),
             LightShape::Triangles(ts) => {
                 crate::geometry::triangle::sample_triangle(ts[index(pick, ts.len())], xi1, xi2)
             }
         }
     }
-}
 
-/// A contiguous run of triangles from one object. The linear scan tests a mesh's
-/// bounding box before its triangles, as the seed did.
-#[derive(Clone, Debug, PartialEq)]
-pub struct TriangleGroup {
-    pub range: Range<u32>,
-    pub bounds: Aabb,
-    pub is_mesh: bool,
+    /// The light object's own nearest hit `(t, primitive id)` at t ≥ `t_min`, by the same
+    /// kernels and `(t, id)` rule as the acceleration structures.
+    pub fn nearest_hit(&self, ray: &Ray, t_min: f32) -> Option<(f32, u32)> {
+        let mut best: Option<(f32, u32)> = None;
+        let mut keep = |t: f32, id: u32| {
+            if best.is_none_or(|(bt, bid)| t < bt || (t == bt && id < bid)) {
+                best = Some((t, id));
+            }
+        };
+        let far = f32::INFINITY;
+        match &self.shape {
+            LightShape::Point { center, radius } => {
+                if let Some(t) = sphere_intersect(*center, *radius, ray, t_min, far) {
+                    keep(t, self.first_id);
+                }
+            }
+            LightShape::Quads(qs) => {
+                for (k, q) in qs.iter().enumerate() {
+                    if let Some(t) = q.intersect(ray, t_min, far) {
+                        keep(t, self.first_id + k as u32);
+                    }
+                }
+            }
+            LightShape::Triangles(ts) => {
+                let w = WatertightRay::new(ray);
+                for (k, tri) in ts.iter().enumerate() {
+                    if let Some(t) = w.intersect(*tri, t_min, far) {
+                        keep(t, self.first_id + k as u32);
+                    }
+                }
+            }
+        }
+        best
+    }
 }
 
 /// A compiled, render-ready scene.
@@ -230,7 +272,6 @@ pub struct Scene {
     pub spheres: SpherePool,
     pub quads: QuadPool,
     pub triangles: TrianglePool,
-    pub triangle_groups: Vec<TriangleGroup>,
     pub materials: Vec<Material>,
     /// Material index of each object.
     pub object_material: Vec<u32>,
@@ -401,7 +442,6 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
     let mut spheres = SpherePool::default();
     let mut quads = QuadPool::default();
     let mut triangles = TrianglePool::default();
-    let mut triangle_groups = Vec::new();
     let mut object_material = Vec::new();
     let mut lights = Vec::new();
     let mut bounds = Aabb::EMPTY;
@@ -427,6 +467,7 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
             Material::Light { color, intensity } => Some(color * intensity),
             _ => None,
         };
+        let first_id = next_id;
         let mut id = || {
             next_id += 1;
             next_id - 1
@@ -441,7 +482,10 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
                 }
                 spheres.push(Vec3::from(*center), *radius, id(), object);
                 bounds = bounds.union(spheres.bounds(spheres.len() - 1));
-                LightShape::Point(Vec3::from(*center))
+                LightShape::Point {
+                    center: Vec3::from(*center),
+                    radius: *radius,
+                }
             }
             ObjectDesc::Quad { corner, u, v, .. } => {
                 if !(finite3(*corner) && finite3(*u) && finite3(*v)) {
@@ -462,15 +506,8 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
                 if !is_proper_triangle(tri) {
                     return Err(oerr("zero area: the vertices are collinear".into()));
                 }
-                let start = triangles.len() as u32;
                 triangles.push(tri, id(), object);
-                let tb = Aabb::from_points(&tri);
-                triangle_groups.push(TriangleGroup {
-                    range: start..start + 1,
-                    bounds: tb,
-                    is_mesh: false,
-                });
-                bounds = bounds.union(tb);
+                bounds = bounds.union(Aabb::from_points(&tri));
                 LightShape::Triangles(vec![tri])
             }
             ObjectDesc::Box {
@@ -494,25 +531,27 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
                 bounds = bounds.union(Aabb::new(min, max));
                 LightShape::Quads(faces)
             }
-            ObjectDesc::Mesh { path, .. } => {
+            ObjectDesc::Mesh {
+                path, subdivide, ..
+            } => {
+                if *subdivide > MAX_SUBDIVIDE {
+                    return Err(oerr(format!(
+                        "subdivide must be 0 to {MAX_SUBDIVIDE}, got {subdivide}"
+                    )));
+                }
                 let (display, text) = read_mesh(source, path).map_err(|e| match e {
                     Error::Io { path: p, source: s } => oerr(format!("cannot read mesh {p}: {s}")),
                     other => other,
                 })?;
-                let mesh = mesh::parse_obj(&display, &text)?;
+                let mut mesh = mesh::parse_obj(&display, &text)?;
                 degenerate_triangles += mesh.degenerate;
-                let start = triangles.len() as u32;
-                let mut mb = Aabb::EMPTY;
+                if *subdivide > 0 {
+                    mesh.triangles = crate::generate::subdivide_times(&mesh.triangles, *subdivide);
+                }
                 for &tri in &mesh.triangles {
                     triangles.push(tri, id(), object);
-                    mb = mb.union(Aabb::from_points(&tri));
+                    bounds = bounds.union(Aabb::from_points(&tri));
                 }
-                triangle_groups.push(TriangleGroup {
-                    range: start..triangles.len() as u32,
-                    bounds: mb,
-                    is_mesh: true,
-                });
-                bounds = bounds.union(mb);
                 LightShape::Triangles(mesh.triangles)
             }
         };
@@ -521,6 +560,7 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
                 object,
                 radiance,
                 shape,
+                first_id,
             });
         }
     }
@@ -532,12 +572,8 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
         has_spheres: !spheres.is_empty(),
         has_quads: !quads.is_empty(),
         has_triangles: !triangles.is_empty(),
-        has_point_lights: lights
-            .iter()
-            .any(|l| matches!(l.shape, LightShape::Point(_))),
-        has_area_lights: lights
-            .iter()
-            .any(|l| !matches!(l.shape, LightShape::Point(_))),
+        has_point_lights: lights.iter().any(Light::is_point),
+        has_area_lights: lights.iter().any(|l| !l.is_point()),
         has_mirror: materials
             .iter()
             .any(|m| matches!(m, Material::PhongMirror { .. })),
@@ -555,7 +591,6 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
         spheres,
         quads,
         triangles,
-        triangle_groups,
         materials,
         object_material,
         lights,

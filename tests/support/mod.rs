@@ -27,17 +27,18 @@ pub fn builtin(name: &str, width: u32, spp: u32) -> Scene {
 
 /// Render on a pool of `threads` threads.
 pub fn render_with(scene: &Scene, accel: AccelKind, threads: usize, seed: u32) -> Rendered {
-    let accel = Accel::build(scene, accel);
+    let mut scene = scene.clone();
+    let accel = Accel::build(&mut scene, accel);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
-    pool.install(|| render(scene, &accel, &RenderSettings { seed }, &|| {}))
+    pool.install(|| render(&scene, &accel, &RenderSettings { seed }, &|| {}))
         .unwrap()
 }
 
 pub fn render_film(scene: &Scene, threads: usize) -> Film {
-    render_with(scene, AccelKind::Linear, threads, 0).film
+    render_with(scene, AccelKind::Bvh, threads, 0).film
 }
 
 /// The bit patterns of a film, for exact comparisons (NaN-safe).

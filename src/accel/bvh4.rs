@@ -1,0 +1,513 @@
+//! The 4-wide BVH: node layout, collapse from the binary build, and scalar traversal
+//! (closest hit, and the any-hit occlusion test of shadow rays).
+//!
+//! A node holds the boxes of its four children structure-of-arrays (`min_x[4]`, …), so
+//! one ray tests all four with one `Vec4` pass. Leaves hold up to four primitives of one
+//! kind, contiguous in that kind's pool (the pools are reordered after the build).
+
+use super::build::{self, BuildNode, PrimRef};
+use super::linear;
+use super::TraversalStats;
+use crate::geometry::spawn::gamma;
+use crate::geometry::triangle::WatertightRay;
+use crate::geometry::{Aabb, Hit, PrimKind, Ray};
+use crate::scene::Scene;
+use bytemuck::{Pod, Zeroable};
+use glam::{Vec3, Vec4};
+
+/// A 4-wide node: child boxes SoA, then the four child codes. 128 bytes, two cache lines.
+#[repr(C, align(64))]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct Node4 {
+    pub min_x: [f32; 4],
+    pub min_y: [f32; 4],
+    pub min_z: [f32; 4],
+    pub max_x: [f32; 4],
+    pub max_y: [f32; 4],
+    pub max_z: [f32; 4],
+    /// Inner node index, a leaf code (`LEAF` bit set) or `EMPTY`.
+    pub child: [u32; 4],
+    pub _pad: [u32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<Node4>() == 128);
+
+/// Child codes: bit 31 marks a leaf; bits 29–30 its kind, 27–28 its count − 1, 0–26 the
+/// first primitive in the kind's pool.
+pub const LEAF: u32 = 1 << 31;
+pub const EMPTY: u32 = u32::MAX;
+const START_BITS: u32 = 27;
+pub const MAX_POOL_FOR_BVH: usize = 1 << START_BITS;
+
+#[inline]
+pub fn encode_leaf(kind: PrimKind, start: u32, count: u32) -> u32 {
+    debug_assert!((1..=4).contains(&count) && start < (1 << START_BITS));
+    let k = match kind {
+        PrimKind::Sphere => 0,
+        PrimKind::Quad => 1,
+        PrimKind::Triangle => 2,
+    };
+    LEAF | k << 29 | (count - 1) << START_BITS | start
+}
+
+#[inline]
+pub fn decode_leaf(code: u32) -> (PrimKind, u32, u32) {
+    let kind = match (code >> 29) & 3 {
+        0 => PrimKind::Sphere,
+        1 => PrimKind::Quad,
+        _ => PrimKind::Triangle,
+    };
+    (
+        kind,
+        code & ((1 << START_BITS) - 1),
+        ((code >> START_BITS) & 3) + 1,
+    )
+}
+
+impl Node4 {
+    pub const EMPTY: Node4 = Node4 {
+        min_x: [f32::INFINITY; 4],
+        min_y: [f32::INFINITY; 4],
+        min_z: [f32::INFINITY; 4],
+        max_x: [f32::NEG_INFINITY; 4],
+        max_y: [f32::NEG_INFINITY; 4],
+        max_z: [f32::NEG_INFINITY; 4],
+        child: [EMPTY; 4],
+        _pad: [0; 4],
+    };
+
+    fn set_child(&mut self, i: usize, b: Aabb, code: u32) {
+        self.min_x[i] = b.min.x;
+        self.min_y[i] = b.min.y;
+        self.min_z[i] = b.min.z;
+        self.max_x[i] = b.max.x;
+        self.max_y[i] = b.max.y;
+        self.max_z[i] = b.max.z;
+        self.child[i] = code;
+    }
+}
+
+/// Traversal box tests shrink the entry and widen the exit distance by this relative
+/// margin, so a primitive whose computed t lies a few ulps outside its box (its test
+/// rounds differently from the box's) is never culled: the BVH then returns exactly what
+/// the brute-force scan returns.
+const NEAR_SCALE: f32 = 1.0 - 2.0 * gamma(8);
+const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(8);
+
+/// Primitive pools with at most this many primitives of a kind stay out of the tree and
+/// are tested in a plain loop before traversal: big analytic primitives (the bunny
+/// scene's ground sphere) would otherwise cover the whole tree.
+pub const LINEAR_LIMIT: usize = 16;
+
+/// Deepest stack a traversal can need: three entries per level of a 4-wide tree whose
+/// depth is bounded by the binary build's.
+const STACK_SIZE: usize = 256;
+
+#[derive(Clone, Debug)]
+pub struct Bvh4 {
+    pub nodes: Vec<Node4>,
+    /// Code of the root (an inner node index or a leaf), `None` when no kind is in the tree.
+    pub root: Option<u32>,
+    /// Kinds tested in a loop beside the tree (index: sphere, quad, triangle).
+    pub linear_kinds: [bool; 3],
+    pub depth: u32,
+    pub leaves: u32,
+}
+
+/// Per-ray constants of the box test.
+struct BoxRay {
+    origin: [Vec4; 3],
+    inv: [Vec4; 3],
+    negative: [bool; 3],
+}
+
+impl BoxRay {
+    #[inline]
+    fn new(ray: &Ray) -> Self {
+        let inv = Vec3::new(1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z);
+        Self {
+            origin: [
+                Vec4::splat(ray.origin.x),
+                Vec4::splat(ray.origin.y),
+                Vec4::splat(ray.origin.z),
+            ],
+            inv: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
+            // The sign bit, so −0 picks the max plane as its near plane like −x does.
+            negative: [
+                inv.x.is_sign_negative(),
+                inv.y.is_sign_negative(),
+                inv.z.is_sign_negative(),
+            ],
+        }
+    }
+
+    /// Entry distances of the four children and the mask of those overlapping
+    /// `[t_min, t_max]`. The near plane of each axis is chosen by the ray's sign, so an
+    /// empty slot (min = +∞, max = −∞) enters at +∞ and never hits. A NaN (0·∞, a ray in
+    /// a slab plane) is dropped by `Vec4::max`/`min`, which return their second operand
+    /// when the first is NaN: that axis leaves the interval unconstrained.
+    #[inline]
+    fn test(&self, n: &Node4, t_min: f32, t_max: f32) -> (Vec4, u32) {
+        let pick = |neg: bool, lo: &[f32; 4], hi: &[f32; 4]| {
+            if neg {
+                (Vec4::from(*hi), Vec4::from(*lo))
+            } else {
+                (Vec4::from(*lo), Vec4::from(*hi))
+            }
+        };
+        let (nx, fx) = pick(self.negative[0], &n.min_x, &n.max_x);
+        let (ny, fy) = pick(self.negative[1], &n.min_y, &n.max_y);
+        let (nz, fz) = pick(self.negative[2], &n.min_z, &n.max_z);
+        let near_x = (nx - self.origin[0]) * self.inv[0] * NEAR_SCALE;
+        let near_y = (ny - self.origin[1]) * self.inv[1] * NEAR_SCALE;
+        let near_z = (nz - self.origin[2]) * self.inv[2] * NEAR_SCALE;
+        let far_x = (fx - self.origin[0]) * self.inv[0] * FAR_SCALE;
+        let far_y = (fy - self.origin[1]) * self.inv[1] * FAR_SCALE;
+        let far_z = (fz - self.origin[2]) * self.inv[2] * FAR_SCALE;
+        let enter = near_x.max(near_y.max(near_z.max(Vec4::splat(t_min))));
+        let exit = far_x.min(far_y.min(far_z.min(Vec4::splat(t_max))));
+        (enter, enter.cmple(exit).bitmask())
+    }
+}
+
+impl Bvh4 {
+    /// Build over the scene's pools (kinds above `LINEAR_LIMIT`), reordering those pools
+    /// so every leaf is a contiguous range.
+    pub fn build(scene: &mut Scene) -> Bvh4 {
+        let counts = [
+            scene.spheres.len(),
+            scene.quads.len(),
+            scene.triangles.len(),
+        ];
+        let in_tree = counts.map(|n| n > LINEAR_LIMIT && n <= MAX_POOL_FOR_BVH);
+        let linear_kinds = in_tree.map(|t| !t);
+        let mut refs = Vec::with_capacity(
+            counts
+                .iter()
+                .zip(in_tree)
+                .filter(|(_, t)| *t)
+                .map(|(n, _)| n)
+                .sum(),
+        );
+        if in_tree[0] {
+            refs.extend((0..counts[0]).map(|i| PrimRef {
+                bounds: scene.spheres.bounds(i),
+                kind: PrimKind::Sphere,
+                index: i as u32,
+            }));
+        }
+        if in_tree[1] {
+            refs.extend((0..counts[1]).map(|i| PrimRef {
+                bounds: scene.quads.bounds(i),
+                kind: PrimKind::Quad,
+                index: i as u32,
+            }));
+        }
+        if in_tree[2] {
+            refs.extend((0..counts[2]).map(|i| PrimRef {
+                bounds: scene.triangles.bounds(i),
+                kind: PrimKind::Triangle,
+                index: i as u32,
+            }));
+        }
+        let tree = build::build(&mut refs);
+
+        // Reorder the pools in reference order, and note each reference's new position.
+        let mut order: [Vec<u32>; 3] = Default::default();
+        let mut position = Vec::with_capacity(refs.len());
+        for r in &refs {
+            let k = kind_slot(r.kind);
+            position.push(order[k].len() as u32);
+            order[k].push(r.index);
+        }
+        if in_tree[0] {
+            scene.spheres.permute(&order[0]);
+        }
+        if in_tree[1] {
+            scene.quads.permute(&order[1]);
+        }
+        if in_tree[2] {
+            scene.triangles.permute(&order[2]);
+        }
+
+        let mut bvh = Bvh4 {
+            nodes: Vec::new(),
+            root: None,
+            linear_kinds,
+            depth: 0,
+            leaves: 0,
+        };
+        if let Some(tree) = tree {
+            let root = bvh.collapse(&tree, &position, 1);
+            bvh.root = Some(root);
+        }
+        bvh
+    }
+
+    /// Turn a binary subtree into 4-wide nodes (pre-order, so the layout is deterministic).
+    fn collapse(&mut self, node: &BuildNode, position: &[u32], depth: u32) -> u32 {
+        let children = match node {
+            BuildNode::Leaf {
+                kind, first, count, ..
+            } => {
+                self.leaves += 1;
+                self.depth = self.depth.max(depth);
+                return encode_leaf(*kind, position[*first as usize], *count);
+            }
+            BuildNode::Inner { children, .. } => children,
+        };
+        // Open the largest inner child until there are four.
+        let mut kids: Vec<&BuildNode> = vec![&children[0], &children[1]];
+        while kids.len() < 4 {
+            let widest = kids
+                .iter()
+                .enumerate()
+                .filter(|(_, k)| matches!(k, BuildNode::Inner { .. }))
+                .max_by(|a, b| {
+                    a.1.bounds()
+                        .surface_area()
+                        .total_cmp(&b.1.bounds().surface_area())
+                })
+                .map(|(i, _)| i);
+            let Some(i) = widest else { break };
+            let BuildNode::Inner { children: c, .. } = kids[i] else {
+                break;
+            };
+            kids[i] = &c[0];
+            kids.insert(i + 1, &c[1]);
+        }
+        let index = self.nodes.len();
+        self.nodes.push(Node4::EMPTY);
+        let mut n = Node4::EMPTY;
+        for (slot, kid) in kids.iter().enumerate() {
+            let code = self.collapse(kid, position, depth + 1);
+            n.set_child(slot, kid.bounds(), code);
+        }
+        self.nodes[index] = n;
+        index as u32
+    }
+
+    /// Closest hit in `[t_min, t_max]` by the `(t, id)` rule.
+    pub fn closest_hit(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        stats: &mut TraversalStats,
+    ) -> Option<Hit> {
+        let mut best = None;
+        let mut t_max = t_max;
+        let wray = WatertightRay::new(ray);
+        for (k, kind) in [PrimKind::Sphere, PrimKind::Quad, PrimKind::Triangle]
+            .into_iter()
+            .enumerate()
+        {
+            if self.linear_kinds[k] {
+                let n = pool_len(scene, kind);
+                if n > 0 {
+                    stats.prims += n as u64;
+                    linear::intersect_range(
+                        scene,
+                        kind,
+                        0..n,
+                        ray,
+                        &wray,
+                        t_min,
+                        &mut t_max,
+                        &mut best,
+                    );
+                }
+            }
+        }
+        let Some(root) = self.root else { return best };
+        let bray = BoxRay::new(ray);
+        let mut stack = [(0u32, 0f32); STACK_SIZE];
+        stack[0] = (root, t_min);
+        let mut sp = 1;
+        while sp > 0 {
+            sp -= 1;
+            let (code, enter) = stack[sp];
+            if enter > t_max {
+                continue;
+            }
+            if code & LEAF != 0 {
+                let (kind, start, count) = decode_leaf(code);
+                stats.prims += count as u64;
+                let range = start as usize..(start + count) as usize;
+                linear::intersect_range(
+                    scene, kind, range, ray, &wray, t_min, &mut t_max, &mut best,
+                );
+                continue;
+            }
+            stats.nodes += 1;
+            let node = &self.nodes[code as usize];
+            let (entry, mut mask) = bray.test(node, t_min, t_max);
+            // Push the hit children farthest first, so the nearest is popped next.
+            let mut hits = [(0u32, 0f32); 4];
+            let mut k = 0;
+            while mask != 0 {
+                let i = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let d = entry[i];
+                let mut j = k;
+                while j > 0 && hits[j - 1].1 < d {
+                    hits[j] = hits[j - 1];
+                    j -= 1;
+                }
+                hits[j] = (node.child[i], d);
+                k += 1;
+            }
+            stack[sp..sp + k].copy_from_slice(&hits[..k]);
+            sp += k;
+        }
+        best
+    }
+
+    /// Is there a hit of another object than `object` that beats `(t_light, id_light)`
+    /// in `[t_min, t_light]`? Stops at the first such occluder.
+    #[allow(clippy::too_many_arguments)]
+    pub fn occluded(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        t_min: f32,
+        t_light: f32,
+        id_light: u32,
+        object: u32,
+        stats: &mut TraversalStats,
+    ) -> bool {
+        let wray = WatertightRay::new(ray);
+        for (k, kind) in [PrimKind::Sphere, PrimKind::Quad, PrimKind::Triangle]
+            .into_iter()
+            .enumerate()
+        {
+            if self.linear_kinds[k] {
+                let n = pool_len(scene, kind);
+                stats.prims += n as u64;
+                if linear::occludes_range(
+                    scene,
+                    kind,
+                    0..n,
+                    ray,
+                    &wray,
+                    t_min,
+                    t_light,
+                    id_light,
+                    object,
+                ) {
+                    return true;
+                }
+            }
+        }
+        let Some(root) = self.root else { return false };
+        let bray = BoxRay::new(ray);
+        let mut stack = [0u32; STACK_SIZE];
+        stack[0] = root;
+        let mut sp = 1;
+        while sp > 0 {
+            sp -= 1;
+            let code = stack[sp];
+            if code & LEAF != 0 {
+                let (kind, start, count) = decode_leaf(code);
+                stats.prims += count as u64;
+                let range = start as usize..(start + count) as usize;
+                if linear::occludes_range(
+                    scene, kind, range, ray, &wray, t_min, t_light, id_light, object,
+                ) {
+                    return true;
+                }
+                continue;
+            }
+            stats.nodes += 1;
+            let node = &self.nodes[code as usize];
+            let (_, mut mask) = bray.test(node, t_min, t_light);
+            while mask != 0 {
+                let i = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                stack[sp] = node.child[i];
+                sp += 1;
+            }
+        }
+        false
+    }
+}
+
+fn kind_slot(kind: PrimKind) -> usize {
+    match kind {
+        PrimKind::Sphere => 0,
+        PrimKind::Quad => 1,
+        PrimKind::Triangle => 2,
+    }
+}
+
+fn pool_len(scene: &Scene, kind: PrimKind) -> usize {
+    match kind {
+        PrimKind::Sphere => scene.spheres.len(),
+        PrimKind::Quad => scene.quads.len(),
+        PrimKind::Triangle => scene.triangles.len(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn leaf_codes_round_trip() {
+        for (kind, start, count) in [
+            (PrimKind::Sphere, 0, 1),
+            (PrimKind::Quad, 12345, 4),
+            (PrimKind::Triangle, (1 << START_BITS) - 1, 3),
+        ] {
+            let code = encode_leaf(kind, start, count);
+            assert_ne!(code, EMPTY);
+            assert_eq!(decode_leaf(code), (kind, start, count));
+        }
+    }
+
+    #[test]
+    fn vec4_max_min_drop_a_nan_in_the_first_operand() {
+        // The box test relies on this (SSE maxps/minps semantics).
+        let nan = Vec4::new(f32::NAN, 1.0, f32::NAN, 5.0);
+        assert_eq!(nan.max(Vec4::splat(2.0)), Vec4::new(2.0, 2.0, 2.0, 5.0));
+        assert_eq!(nan.min(Vec4::splat(2.0)), Vec4::new(2.0, 1.0, 2.0, 2.0));
+    }
+
+    #[test]
+    fn empty_slots_never_hit() {
+        let n = Node4::EMPTY;
+        for dir in [
+            Vec3::X,
+            -Vec3::X,
+            Vec3::new(0.0, -0.0, 1.0),
+            Vec3::new(0.3, -0.5, 0.1).normalize(),
+        ] {
+            let r = BoxRay::new(&Ray::new(Vec3::ZERO, dir));
+            assert_eq!(r.test(&n, 0.0, f32::INFINITY).1, 0);
+        }
+    }
+
+    #[test]
+    fn flat_and_axis_parallel_boxes() {
+        let mut n = Node4::EMPTY;
+        // A wall at x = 555 and a box starting exactly at the ray origin's plane y = 0.
+        n.set_child(
+            0,
+            Aabb::new(Vec3::new(555.0, 0.0, 0.0), Vec3::new(555.0, 555.0, 555.0)),
+            0,
+        );
+        n.set_child(
+            1,
+            Aabb::new(Vec3::new(0.0, 0.0, 0.0), Vec3::new(10.0, 10.0, 10.0)),
+            1,
+        );
+        let r = BoxRay::new(&Ray::new(Vec3::new(-1.0, 0.0, 5.0), Vec3::X));
+        assert_eq!(r.test(&n, 0.0, f32::INFINITY).1, 0b11);
+        let r = BoxRay::new(&Ray::new(
+            Vec3::new(-1.0, 0.0, 5.0),
+            Vec3::new(1.0, -0.0, 0.0),
+        ));
+        assert_eq!(r.test(&n, 0.0, f32::INFINITY).1, 0b11);
+    }
+}
