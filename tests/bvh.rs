@@ -1,0 +1,378 @@
+//! The BVH against the brute-force scan: same primitive and same t, bit for bit, for
+//! closest hits, shadow visibility and any-hit; a deterministic tree; degenerate input.
+
+mod support;
+
+use glam::Vec3;
+use raytracer::accel::{Accel, AccelKind, TraversalStats};
+use raytracer::geometry::{Aabb, Hit, Ray};
+use raytracer::integrator::T_MIN;
+use raytracer::scene::Scene;
+use support::{bits, builtin, obj_text, render_with, scene_with_files, Rng};
+
+/// Both accelerators over (their own copies of) one scene.
+struct Pair {
+    linear: (Scene, Accel),
+    bvh: (Scene, Accel),
+}
+
+impl Pair {
+    fn new(scene: &Scene) -> Pair {
+        let mut l = scene.clone();
+        let la = Accel::build(&mut l, AccelKind::Linear);
+        let mut b = scene.clone();
+        let ba = Accel::build(&mut b, AccelKind::Bvh);
+        assert!(matches!(ba, Accel::Bvh(_)));
+        Pair {
+            linear: (l, la),
+            bvh: (b, ba),
+        }
+    }
+
+    fn closest(&self, ray: &Ray, t_max: f32) -> (Option<Hit>, Option<Hit>) {
+        let mut s = TraversalStats::default();
+        (
+            self.linear
+                .1
+                .closest_hit(&self.linear.0, ray, T_MIN, t_max, &mut s),
+            self.bvh
+                .1
+                .closest_hit(&self.bvh.0, ray, T_MIN, t_max, &mut s),
+        )
+    }
+}
+
+/// (t bits, id, object): what must agree; the pool index differs after reordering.
+fn key(h: Option<Hit>) -> Option<(u32, u32, u32)> {
+    h.map(|h| (h.t.to_bits(), h.id, h.object))
+}
+
+/// Random rays: from around the bounds in random directions, aimed at random points of
+/// the bounds, and axis-parallel (with ±0 components).
+fn rays(bounds: Aabb, n: usize, seed: u64) -> Vec<Ray> {
+    let mut rng = Rng(seed);
+    let (lo, hi) = (bounds.min, bounds.max);
+    // Flat bounds (a single triangle) still get origins off their plane.
+    let ext = (hi - lo).max(Vec3::splat(0.5 * (hi - lo).max_element()));
+    let point = |rng: &mut Rng, grow: f32| {
+        Vec3::new(
+            rng.range(lo.x - grow * ext.x, hi.x + grow * ext.x),
+            rng.range(lo.y - grow * ext.y, hi.y + grow * ext.y),
+            rng.range(lo.z - grow * ext.z, hi.z + grow * ext.z),
+        )
+    };
+    (0..n)
+        .map(|i| match i % 3 {
+            0 => Ray::new(point(&mut rng, 0.5), rng.unit_vector()),
+            1 => {
+                let o = point(&mut rng, 1.0);
+                let target = point(&mut rng, 0.0);
+                Ray::new(o, (target - o).normalize_or(Vec3::X))
+            }
+            _ => {
+                let axis = (rng.next_u64() % 6) as usize;
+                let mut d = [0.0f32; 3];
+                d[axis % 3] = if axis < 3 { 1.0 } else { -1.0 };
+                // Signed zeros on the other axes.
+                for (k, c) in d.iter_mut().enumerate() {
+                    if k != axis % 3 && rng.next_u64() % 2 == 0 {
+                        *c = -0.0;
+                    }
+                }
+                Ray::new(point(&mut rng, 0.2), Vec3::from(d))
+            }
+        })
+        .collect()
+}
+
+fn assert_same_closest_hits(scene: &Scene, n: usize, seed: u64) {
+    let pair = Pair::new(scene);
+    let mut hits = 0;
+    for (i, ray) in rays(scene.bounds, n, seed).iter().enumerate() {
+        let (l, b) = pair.closest(ray, f32::INFINITY);
+        assert_eq!(key(l), key(b), "ray {i}: {ray:?}");
+        hits += l.is_some() as usize;
+        // A bounded query as well (culling with t_max).
+        if let Some(h) = l {
+            let (l2, b2) = pair.closest(ray, h.t * 1.5);
+            assert_eq!(key(l2), key(b2), "bounded ray {i}");
+        }
+    }
+    assert!(
+        hits > n / 10,
+        "only {hits} of {n} rays hit: the test rays miss the scene"
+    );
+}
+
+fn bunny_mesh_scene(subdivide: u32) -> Scene {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/bunny.toml"))
+        .unwrap()
+        .replace(
+            "path = \"../assets/bunny.obj\"",
+            &format!("path = \"bunny.obj\"\nsubdivide = {subdivide}"),
+        );
+    let obj =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/bunny.obj")).unwrap();
+    scene_with_files(&text, &[("bunny.obj", obj)])
+}
+
+/// The mesh alone, so that random rays aimed at the scene bounds meet triangles.
+fn mesh_only(triangles: &[[Vec3; 3]]) -> Scene {
+    let text = r#"
+[materials.m]
+type = "phong"
+albedo = [0.5, 0.5, 0.5]
+shininess = 10
+[[objects]]
+type = "mesh"
+path = "m.obj"
+material = "m"
+"#;
+    scene_with_files(text, &[("m.obj", obj_text(triangles))])
+}
+
+fn bunny_triangles(scene: &Scene) -> Vec<[Vec3; 3]> {
+    (0..scene.triangles.len())
+        .map(|i| scene.triangles.vertices(i))
+        .collect()
+}
+
+#[test]
+fn bunny_100k_rays_match_brute_force() {
+    let scene = bunny_mesh_scene(0);
+    // The whole scene (ground sphere, mirror, light beside the tree) ...
+    assert_same_closest_hits(&scene, 20_000, 1);
+    // ... and rays aimed at the mesh itself.
+    let mesh = mesh_only(&bunny_triangles(&scene));
+    assert_same_closest_hits(&mesh, 100_000, 2);
+}
+
+#[test]
+fn subdivided_bunny_rays_match_brute_force() {
+    let scene = bunny_mesh_scene(1);
+    assert_eq!(scene.triangles.len(), 19_872);
+    let mesh = mesh_only(&bunny_triangles(&scene));
+    assert_same_closest_hits(&mesh, 20_000, 3);
+}
+
+/// More than `LINEAR_LIMIT` of every kind, so all three kinds are in the tree together.
+fn mixed_scene() -> Scene {
+    let mut rng = Rng(9);
+    let mut text = String::from(
+        "[materials.m]\ntype = \"phong\"\nalbedo = [0.5, 0.5, 0.5]\nshininess = 10\n\
+         [materials.l]\ntype = \"light\"\ncolor = [1, 1, 1]\n",
+    );
+    let p = |rng: &mut Rng| {
+        [
+            rng.range(-5.0, 5.0),
+            rng.range(-5.0, 5.0),
+            rng.range(-5.0, 5.0),
+        ]
+    };
+    for i in 0..60 {
+        let c = p(&mut rng);
+        let m = if i % 7 == 0 { "l" } else { "m" };
+        text += &format!(
+            "[[objects]]\ntype = \"sphere\"\ncenter = {c:?}\nradius = {}\nmaterial = \"{m}\"\n",
+            rng.range(0.05, 0.8)
+        );
+    }
+    for i in 0..40 {
+        let c = p(&mut rng);
+        let u = [
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+        ];
+        let v = [
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+        ];
+        if i % 2 == 0 {
+            text += &format!("[[objects]]\ntype = \"quad\"\ncorner = {c:?}\nu = {u:?}\nv = {v:?}\nmaterial = \"m\"\n");
+        } else {
+            let d = [c[0] + 0.5, c[1] + 0.7, c[2] + 0.3];
+            text += &format!(
+                "[[objects]]\ntype = \"box\"\ncorners = [{c:?}, {d:?}]\nmaterial = \"m\"\n"
+            );
+        }
+    }
+    for _ in 0..80 {
+        let a = p(&mut rng);
+        let b = [
+            a[0] + rng.range(-1.0, 1.0),
+            a[1] + rng.range(-1.0, 1.0),
+            a[2],
+        ];
+        let c = [
+            a[0],
+            a[1] + rng.range(-1.0, 1.0),
+            a[2] + rng.range(-1.0, 1.0),
+        ];
+        text += &format!(
+            "[[objects]]\ntype = \"triangle\"\na = {a:?}\nb = {b:?}\nc = {c:?}\nmaterial = \"m\"\n"
+        );
+    }
+    text += "[[objects]]\ntype = \"mesh\"\npath = \"ico.obj\"\nmaterial = \"l\"\n";
+    let ico = raytracer::generate::icosphere(2, Vec3::new(1.0, 2.0, -1.0), 1.5);
+    scene_with_files(&text, &[("ico.obj", obj_text(&ico))])
+}
+
+#[test]
+fn mixed_scene_100k_rays_match_brute_force() {
+    let scene = mixed_scene();
+    let pair = Pair::new(&scene);
+    let Accel::Bvh(b) = &pair.bvh.1 else {
+        unreachable!()
+    };
+    assert_eq!(
+        b.linear_kinds,
+        [false, false, false],
+        "every kind must be in the tree"
+    );
+    assert_same_closest_hits(&scene, 100_000, 4);
+}
+
+#[test]
+fn shadow_visibility_and_any_hit_agree_with_closest_hit() {
+    let scene = mixed_scene();
+    assert!(scene.lights.len() > 5);
+    let pair = Pair::new(&scene);
+    let mut rng = Rng(5);
+    let mut s = TraversalStats::default();
+    let (mut visible, mut blocked) = (0, 0);
+    for i in 0..50_000 {
+        let light = &scene.lights[i % scene.lights.len()];
+        let o = Vec3::new(
+            rng.range(-6.0, 6.0),
+            rng.range(-6.0, 6.0),
+            rng.range(-6.0, 6.0),
+        );
+        let target = light.sample(rng.f32(), rng.f32(), rng.f32());
+        let ray = Ray::new(o, (target - o).normalize_or(Vec3::Y));
+        let l = pair
+            .linear
+            .1
+            .light_visible(&pair.linear.0, &ray, T_MIN, light, &mut s);
+        let b = pair
+            .bvh
+            .1
+            .light_visible(&pair.bvh.0, &ray, T_MIN, light, &mut s);
+        assert_eq!(l, b, "ray {i} to light {}", light.object);
+        if l {
+            visible += 1
+        } else {
+            blocked += 1
+        }
+        // Any-hit with no light excluded: occluded before t_max ⇔ a closest hit before it.
+        let Accel::Bvh(bvh) = &pair.bvh.1 else {
+            unreachable!()
+        };
+        let t_max = rng.range(0.0, 12.0);
+        let any = bvh.occluded(&pair.bvh.0, &ray, T_MIN, t_max, u32::MAX, u32::MAX, &mut s);
+        let closest = pair.closest(&ray, t_max).0.is_some();
+        assert_eq!(any, closest, "any-hit ray {i}, t_max {t_max}");
+    }
+    assert!(
+        visible > 1000 && blocked > 1000,
+        "visible {visible}, blocked {blocked}"
+    );
+}
+
+#[test]
+fn tree_is_the_same_for_one_and_two_threads() {
+    // 79 488 triangles: above the parallel-build threshold.
+    let scene = bunny_mesh_scene(2);
+    let build = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut s = scene.clone();
+            let a = Accel::build(&mut s, AccelKind::Bvh);
+            let Accel::Bvh(b) = a else { unreachable!() };
+            (b, s.triangles.id.clone(), s.triangles.ax.clone())
+        })
+    };
+    let (one, ids1, ax1) = build(1);
+    let (two, ids2, ax2) = build(2);
+    assert!(one.nodes.len() > 1000);
+    assert_eq!(
+        bytemuck::cast_slice::<_, u8>(&one.nodes),
+        bytemuck::cast_slice::<_, u8>(&two.nodes)
+    );
+    assert_eq!(
+        (one.root, one.depth, one.leaves),
+        (two.root, two.depth, two.leaves)
+    );
+    assert_eq!(ids1, ids2);
+    assert_eq!(
+        ax1.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+        ax2.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn degenerate_inputs() {
+    // An empty scene: no tree, every ray misses.
+    let empty = scene_with_files("background = [0.2, 0.3, 0.4]\n", &[]);
+    let mut e = empty.clone();
+    let Accel::Bvh(b) = Accel::build(&mut e, AccelKind::Bvh) else {
+        unreachable!()
+    };
+    assert!(b.root.is_none());
+    let film = render_with(&empty, AccelKind::Bvh, 2, 0).film;
+    // The mean of 10 equal samples, within rounding.
+    let bg = Vec3::new(0.2, 0.3, 0.4);
+    assert!(film.pixels.iter().all(|p| (*p - bg).abs().max_element() < 1e-6));
+
+    // One triangle in a mesh; 500 copies of one triangle (all centroids equal: the
+    // smallest id wins); zero-area triangles mixed into a mesh.
+    let tri = [
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(1.0, 0.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+    ];
+    let single = mesh_only(&[tri]);
+    assert_same_closest_hits(&single, 3_000, 6);
+    let copies = mesh_only(&vec![tri; 500]);
+    let pair = Pair::new(&copies);
+    let ray = Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z);
+    let (l, b) = pair.closest(&ray, f32::INFINITY);
+    assert_eq!(key(l), key(b));
+    assert_eq!(b.unwrap().id, 0);
+    assert_same_closest_hits(&copies, 3_000, 7);
+
+    let ico = raytracer::generate::icosphere(2, Vec3::ZERO, 1.0);
+    let mut with_degenerate = Vec::new();
+    for (i, t) in ico.iter().enumerate() {
+        with_degenerate.push(*t);
+        if i % 3 == 0 {
+            with_degenerate.push([t[0], t[0], t[1]]); // repeated vertex
+            // Nearly collinear: the rounded midpoint may leave a needle of tiny area.
+            with_degenerate.push([t[0], (t[0] + t[1]) * 0.5, t[1]]);
+        }
+    }
+    let dirty = mesh_only(&with_degenerate);
+    // The 107 repeated-vertex faces are dropped at load; needles stay, in the tree.
+    assert!(dirty.degenerate_triangles >= 107, "{}", dirty.degenerate_triangles);
+    assert!(dirty.triangles.len() >= 320);
+    assert_same_closest_hits(&dirty, 5_000, 8);
+}
+
+#[test]
+fn every_builtin_scene_is_the_same_with_bvh_and_linear() {
+    for name in raytracer::scene::builtin::names() {
+        let scene = builtin(name, 32, 2);
+        let l = render_with(&scene, AccelKind::Linear, 2, 3);
+        let b = render_with(&scene, AccelKind::Bvh, 2, 3);
+        assert_eq!(bits(&l.film), bits(&b.film), "{name}");
+        assert_eq!(
+            (l.counts.camera, l.counts.shadow, l.counts.secondary),
+            (b.counts.camera, b.counts.shadow, b.counts.secondary),
+            "{name}"
+        );
+    }
+}
