@@ -3,10 +3,30 @@
 
 use super::TraversalStats;
 use crate::geometry::aabb::SlabRay;
+use crate::geometry::sphere::SphereRay;
 use crate::geometry::triangle::WatertightRay;
 use crate::geometry::{keep_closest, Aabb, Hit, PrimKind, Ray};
 use crate::scene::Scene;
 use std::ops::Range;
+
+/// A ray with the per-ray constants of every primitive test, computed once.
+#[derive(Clone, Copy, Debug)]
+pub struct PrimRay {
+    pub ray: Ray,
+    pub sphere: SphereRay,
+    pub triangle: WatertightRay,
+}
+
+impl PrimRay {
+    #[inline]
+    pub fn new(ray: &Ray) -> Self {
+        Self {
+            ray: *ray,
+            sphere: SphereRay::new(ray),
+            triangle: WatertightRay::new(ray),
+        }
+    }
+}
 
 /// Triangles grouped by object: a mesh (more than one triangle) is tested only when its
 /// bounding box is hit, as the seed did.
@@ -50,7 +70,7 @@ impl LinearScan {
     ) -> Option<Hit> {
         let mut best = None;
         let mut t_max = t_max;
-        let wray = WatertightRay::new(ray);
+        let pray = PrimRay::new(ray);
         for kind in [PrimKind::Sphere, PrimKind::Quad] {
             let n = if kind == PrimKind::Sphere {
                 scene.spheres.len()
@@ -58,7 +78,7 @@ impl LinearScan {
                 scene.quads.len()
             };
             stats.prims += n as u64;
-            intersect_range(scene, kind, 0..n, ray, &wray, t_min, &mut t_max, &mut best);
+            intersect_range(scene, kind, 0..n, &pray, t_min, &mut t_max, &mut best);
         }
         if !self.groups.is_empty() {
             let slab = SlabRay::new(ray);
@@ -73,7 +93,7 @@ impl LinearScan {
                 stats.prims += g.indices.len() as u64;
                 for &i in &g.indices {
                     let i = i as usize;
-                    if let Some(t) = tri.intersect(i, &wray, t_min, t_max) {
+                    if let Some(t) = tri.intersect(i, &pray.triangle, t_min, t_max) {
                         keep_closest(
                             &mut best,
                             hit(t, tri.id[i], PrimKind::Triangle, i, tri.object[i]),
@@ -94,8 +114,7 @@ pub fn intersect_range(
     scene: &Scene,
     kind: PrimKind,
     range: Range<usize>,
-    ray: &Ray,
-    wray: &WatertightRay,
+    ray: &PrimRay,
     t_min: f32,
     t_max: &mut f32,
     best: &mut Option<Hit>,
@@ -104,7 +123,7 @@ pub fn intersect_range(
         PrimKind::Sphere => {
             let s = &scene.spheres;
             for i in range {
-                if let Some(t) = s.intersect(i, ray, t_min, *t_max) {
+                if let Some(t) = s.intersect(i, &ray.sphere, t_min, *t_max) {
                     keep_closest(best, hit(t, s.id[i], kind, i, s.object[i]));
                     *t_max = t;
                 }
@@ -113,7 +132,7 @@ pub fn intersect_range(
         PrimKind::Quad => {
             let q = &scene.quads;
             for i in range {
-                if let Some(t) = q.intersect(i, ray, t_min, *t_max) {
+                if let Some(t) = q.intersect(i, &ray.ray, t_min, *t_max) {
                     keep_closest(best, hit(t, q.id[i], kind, i, q.object[i]));
                     *t_max = t;
                 }
@@ -122,7 +141,7 @@ pub fn intersect_range(
         PrimKind::Triangle => {
             let tri = &scene.triangles;
             for i in range {
-                if let Some(t) = tri.intersect(i, wray, t_min, *t_max) {
+                if let Some(t) = tri.intersect(i, &ray.triangle, t_min, *t_max) {
                     keep_closest(best, hit(t, tri.id[i], kind, i, tri.object[i]));
                     *t_max = t;
                 }
@@ -138,8 +157,7 @@ pub fn occludes_range(
     scene: &Scene,
     kind: PrimKind,
     range: Range<usize>,
-    ray: &Ray,
-    wray: &WatertightRay,
+    ray: &PrimRay,
     t_min: f32,
     t_light: f32,
     id_light: u32,
@@ -151,7 +169,7 @@ pub fn occludes_range(
             let s = &scene.spheres;
             range.into_iter().any(|i| {
                 s.object[i] != object
-                    && s.intersect(i, ray, t_min, t_light)
+                    && s.intersect(i, &ray.sphere, t_min, t_light)
                         .is_some_and(|t| beats(t, s.id[i]))
             })
         }
@@ -159,7 +177,7 @@ pub fn occludes_range(
             let q = &scene.quads;
             range.into_iter().any(|i| {
                 q.object[i] != object
-                    && q.intersect(i, ray, t_min, t_light)
+                    && q.intersect(i, &ray.ray, t_min, t_light)
                         .is_some_and(|t| beats(t, q.id[i]))
             })
         }
@@ -168,7 +186,7 @@ pub fn occludes_range(
             range.into_iter().any(|i| {
                 tri.object[i] != object
                     && tri
-                        .intersect(i, wray, t_min, t_light)
+                        .intersect(i, &ray.triangle, t_min, t_light)
                         .is_some_and(|t| beats(t, tri.id[i]))
             })
         }

@@ -70,8 +70,31 @@ impl SpherePool {
     /// Distance to sphere `i` in `[t_min, t_max]`: the near root if it is in range, else the
     /// far root (the seed's rule, so a ray starting inside hits the far wall).
     #[inline]
-    pub fn intersect(&self, i: usize, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
-        sphere_intersect(self.center(i), self.radius[i], ray, t_min, t_max)
+    pub fn intersect(&self, i: usize, ray: &SphereRay, t_min: f32, t_max: f32) -> Option<f32> {
+        sphere_intersect_with(self.center(i), self.radius[i], ray, t_min, t_max)
+    }
+}
+
+/// Per-ray constants of the sphere test: d·d and its reciprocal, computed once per ray
+/// instead of a division per sphere.
+#[derive(Clone, Copy, Debug)]
+pub struct SphereRay {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub a: f32,
+    pub inv_a: f32,
+}
+
+impl SphereRay {
+    #[inline]
+    pub fn new(ray: &Ray) -> Self {
+        let a = ray.dir.dot(ray.dir);
+        Self {
+            origin: ray.origin,
+            dir: ray.dir,
+            a,
+            inv_a: 1.0 / a,
+        }
     }
 }
 
@@ -89,13 +112,29 @@ pub fn sphere_intersect(
     t_min: f32,
     t_max: f32,
 ) -> Option<f32> {
+    sphere_intersect_with(center, radius, &SphereRay::new(ray), t_min, t_max)
+}
+
+/// `sphere_intersect` with the per-ray constants computed once. Requires `t_min ≥ 0`
+/// (every ray of the renderer starts at t > 0): the early exit below assumes it.
+#[inline]
+pub fn sphere_intersect_with(
+    center: Vec3,
+    radius: f32,
+    ray: &SphereRay,
+    t_min: f32,
+    t_max: f32,
+) -> Option<f32> {
     let d = ray.dir;
     let f = ray.origin - center;
-    let a = d.dot(d);
     let b = f.dot(d); // half of the usual b
     let c = f.dot(f) - radius * radius;
-    let perp = f - d * (b / a);
-    let quarter_disc = a * (radius * radius - perp.dot(perp));
+    // Outside and moving away: both roots are negative (a shortcut, same answer).
+    if c > 0.0 && b > 0.0 {
+        return None;
+    }
+    let perp = f - d * (b * ray.inv_a);
+    let quarter_disc = ray.a * (radius * radius - perp.dot(perp));
     if quarter_disc < 0.0 {
         return None;
     }
@@ -106,7 +145,7 @@ pub fn sphere_intersect(
         (0.0, 0.0)
     } else {
         let x0 = c / q;
-        let x1 = q / a;
+        let x1 = q * ray.inv_a;
         if x0 <= x1 {
             (x0, x1)
         } else {
