@@ -293,7 +293,7 @@ fn tree_is_the_same_for_one_and_two_threads() {
             let mut s = scene.clone();
             let a = Accel::build(&mut s, AccelKind::Bvh);
             let Accel::Bvh(b) = a else { unreachable!() };
-            (b, s.triangles.id.clone(), s.triangles.ax.clone())
+            (b, s.triangles.id.clone(), s.triangles.a[0].clone())
         })
     };
     let (one, ids1, ax1) = build(1);

@@ -117,7 +117,9 @@ pub struct Bvh4 {
 /// Per-ray constants of the box test.
 struct BoxRay {
     origin: [Vec4; 3],
-    inv: [Vec4; 3],
+    /// 1/d scaled by `NEAR_SCALE` and `FAR_SCALE`: the margins cost no multiply per node.
+    inv_near: [Vec4; 3],
+    inv_far: [Vec4; 3],
     negative: [bool; 3],
 }
 
@@ -125,13 +127,20 @@ impl BoxRay {
     #[inline]
     fn new(ray: &Ray) -> Self {
         let inv = Vec3::new(1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z);
+        let near = inv * NEAR_SCALE;
+        let far = inv * FAR_SCALE;
         Self {
             origin: [
                 Vec4::splat(ray.origin.x),
                 Vec4::splat(ray.origin.y),
                 Vec4::splat(ray.origin.z),
             ],
-            inv: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
+            inv_near: [
+                Vec4::splat(near.x),
+                Vec4::splat(near.y),
+                Vec4::splat(near.z),
+            ],
+            inv_far: [Vec4::splat(far.x), Vec4::splat(far.y), Vec4::splat(far.z)],
             // The sign bit, so −0 picks the max plane as its near plane like −x does.
             negative: [
                 inv.x.is_sign_negative(),
@@ -146,7 +155,7 @@ impl BoxRay {
     /// empty slot (min = +∞, max = −∞) enters at +∞ and never hits. A NaN (0·∞, a ray in
     /// a slab plane) is dropped by `Vec4::max`/`min`, which return their second operand
     /// when the first is NaN: that axis leaves the interval unconstrained.
-    #[inline]
+    #[inline(always)]
     fn test(&self, n: &Node4, t_min: f32, t_max: f32) -> (Vec4, u32) {
         let pick = |neg: bool, lo: &[f32; 4], hi: &[f32; 4]| {
             if neg {
@@ -158,12 +167,12 @@ impl BoxRay {
         let (nx, fx) = pick(self.negative[0], &n.min_x, &n.max_x);
         let (ny, fy) = pick(self.negative[1], &n.min_y, &n.max_y);
         let (nz, fz) = pick(self.negative[2], &n.min_z, &n.max_z);
-        let near_x = (nx - self.origin[0]) * self.inv[0] * NEAR_SCALE;
-        let near_y = (ny - self.origin[1]) * self.inv[1] * NEAR_SCALE;
-        let near_z = (nz - self.origin[2]) * self.inv[2] * NEAR_SCALE;
-        let far_x = (fx - self.origin[0]) * self.inv[0] * FAR_SCALE;
-        let far_y = (fy - self.origin[1]) * self.inv[1] * FAR_SCALE;
-        let far_z = (fz - self.origin[2]) * self.inv[2] * FAR_SCALE;
+        let near_x = (nx - self.origin[0]) * self.inv_near[0];
+        let near_y = (ny - self.origin[1]) * self.inv_near[1];
+        let near_z = (nz - self.origin[2]) * self.inv_near[2];
+        let far_x = (fx - self.origin[0]) * self.inv_far[0];
+        let far_y = (fy - self.origin[1]) * self.inv_far[1];
+        let far_z = (fz - self.origin[2]) * self.inv_far[2];
         let enter = near_x.max(near_y.max(near_z.max(Vec4::splat(t_min))));
         let exit = far_x.min(far_y.min(far_z.min(Vec4::splat(t_max))));
         (enter, enter.cmple(exit).bitmask())

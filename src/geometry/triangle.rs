@@ -6,19 +6,14 @@
 use super::{Aabb, Ray};
 use glam::Vec3;
 
-/// Triangles, structure-of-arrays, stored as their three vertices (the watertight test
-/// works on vertices relative to the ray origin).
+/// Triangles, structure-of-arrays, stored as their three vertices, each vertex as one
+/// array per axis: `a[axis][i]`. The watertight test reads the axes in the order its ray
+/// permutation gives, so it indexes `a[kx]` directly instead of building vectors.
 #[derive(Clone, Debug, Default)]
 pub struct TrianglePool {
-    pub ax: Vec<f32>,
-    pub ay: Vec<f32>,
-    pub az: Vec<f32>,
-    pub bx: Vec<f32>,
-    pub by: Vec<f32>,
-    pub bz: Vec<f32>,
-    pub cx: Vec<f32>,
-    pub cy: Vec<f32>,
-    pub cz: Vec<f32>,
+    pub a: [Vec<f32>; 3],
+    pub b: [Vec<f32>; 3],
+    pub c: [Vec<f32>; 3],
     /// Scene-wide primitive id (closest-hit tie-breaker).
     pub id: Vec<u32>,
     /// The scene object each triangle belongs to (all triangles of a mesh share one).
@@ -35,32 +30,23 @@ impl TrianglePool {
     }
 
     pub fn push(&mut self, [a, b, c]: [Vec3; 3], id: u32, object: u32) {
-        self.ax.push(a.x);
-        self.ay.push(a.y);
-        self.az.push(a.z);
-        self.bx.push(b.x);
-        self.by.push(b.y);
-        self.bz.push(b.z);
-        self.cx.push(c.x);
-        self.cy.push(c.y);
-        self.cz.push(c.z);
+        for axis in 0..3 {
+            self.a[axis].push(a[axis]);
+            self.b[axis].push(b[axis]);
+            self.c[axis].push(c[axis]);
+        }
         self.id.push(id);
         self.object.push(object);
     }
 
     /// Reorder (see `geometry::permute`).
     pub fn permute(&mut self, order: &[u32]) {
-        for v in [
-            &mut self.ax,
-            &mut self.ay,
-            &mut self.az,
-            &mut self.bx,
-            &mut self.by,
-            &mut self.bz,
-            &mut self.cx,
-            &mut self.cy,
-            &mut self.cz,
-        ] {
+        for v in self
+            .a
+            .iter_mut()
+            .chain(self.b.iter_mut())
+            .chain(self.c.iter_mut())
+        {
             super::permute(v, order);
         }
         super::permute(&mut self.id, order);
@@ -69,11 +55,8 @@ impl TrianglePool {
 
     #[inline]
     pub fn vertices(&self, i: usize) -> [Vec3; 3] {
-        [
-            Vec3::new(self.ax[i], self.ay[i], self.az[i]),
-            Vec3::new(self.bx[i], self.by[i], self.bz[i]),
-            Vec3::new(self.cx[i], self.cy[i], self.cz[i]),
-        ]
+        let v = |p: &[Vec<f32>; 3]| Vec3::new(p[0][i], p[1][i], p[2][i]);
+        [v(&self.a), v(&self.b), v(&self.c)]
     }
 
     pub fn bounds(&self, i: usize) -> Aabb {
@@ -87,9 +70,18 @@ impl TrianglePool {
         (b - a).cross(c - a).normalize_or(Vec3::Y)
     }
 
-    #[inline]
+    /// The watertight test on triangle `i`, reading the pool in the ray's axis order.
+    #[inline(always)]
     pub fn intersect(&self, i: usize, ray: &WatertightRay, t_min: f32, t_max: f32) -> Option<f32> {
-        ray.intersect(self.vertices(i), t_min, t_max)
+        let [kx, ky, kz] = ray.axes;
+        let (a, b, c) = (&self.a, &self.b, &self.c);
+        ray.intersect_permuted(
+            [a[kx][i], a[ky][i], a[kz][i]],
+            [b[kx][i], b[ky][i], b[kz][i]],
+            [c[kx][i], c[ky][i], c[kz][i]],
+            t_min,
+            t_max,
+        )
     }
 }
 
@@ -113,13 +105,13 @@ pub fn sample_triangle([a, b, c]: [Vec3; 3], xi1: f32, xi2: f32) -> Vec3 {
 
 /// Per-ray constants of the watertight ray/triangle test (Woop, Benthin, Wald, "Watertight
 /// Ray/Triangle Intersection", JCGT 2013): the axis permutation that makes z the dominant
-/// direction axis and the shear that maps the ray onto +z.
+/// direction axis, the origin in that order, and the shear that maps the ray onto +z.
 #[derive(Clone, Copy, Debug)]
 pub struct WatertightRay {
-    pub origin: Vec3,
-    pub kx: usize,
-    pub ky: usize,
-    pub kz: usize,
+    /// [kx, ky, kz].
+    pub axes: [usize; 3],
+    /// The origin's components in `axes` order.
+    pub origin: [f32; 3],
     pub sx: f32,
     pub sy: f32,
     pub sz: f32,
@@ -146,29 +138,42 @@ impl WatertightRay {
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
+        let o = ray.origin;
         Self {
-            origin: ray.origin,
-            kx,
-            ky,
-            kz,
+            axes: [kx, ky, kz],
+            origin: [o[kx], o[ky], o[kz]],
             sx: d[kx] / d[kz],
             sy: d[ky] / d[kz],
             sz: 1.0 / d[kz],
         }
     }
 
-    /// Two-sided watertight test. Edges are inclusive, and a ray through a shared edge or
-    /// vertex hits at least one of the triangles sharing it: the edge functions are exact
-    /// in sign, with an f64 recomputation when one of them rounds to zero.
+    /// Two-sided watertight test of the triangle `[a, b, c]`.
     #[inline]
     pub fn intersect(&self, [a, b, c]: [Vec3; 3], t_min: f32, t_max: f32) -> Option<f32> {
-        let (kx, ky, kz) = (self.kx, self.ky, self.kz);
-        let a = a - self.origin;
-        let b = b - self.origin;
-        let c = c - self.origin;
-        let (ax, ay) = (a[kx] - self.sx * a[kz], a[ky] - self.sy * a[kz]);
-        let (bx, by) = (b[kx] - self.sx * b[kz], b[ky] - self.sy * b[kz]);
-        let (cx, cy) = (c[kx] - self.sx * c[kz], c[ky] - self.sy * c[kz]);
+        let [kx, ky, kz] = self.axes;
+        let p = |v: Vec3| [v[kx], v[ky], v[kz]];
+        self.intersect_permuted(p(a), p(b), p(c), t_min, t_max)
+    }
+
+    /// The test on vertices already in the ray's axis order. Edges are inclusive, and a
+    /// ray through a shared edge or vertex hits at least one of the triangles sharing it:
+    /// the edge functions are exact in sign, with an f64 recomputation when one of them
+    /// rounds to zero.
+    #[inline(always)]
+    pub fn intersect_permuted(
+        &self,
+        a: [f32; 3],
+        b: [f32; 3],
+        c: [f32; 3],
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<f32> {
+        let [ox, oy, oz] = self.origin;
+        let (az, bz, cz) = (a[2] - oz, b[2] - oz, c[2] - oz);
+        let (ax, ay) = ((a[0] - ox) - self.sx * az, (a[1] - oy) - self.sy * az);
+        let (bx, by) = ((b[0] - ox) - self.sx * bz, (b[1] - oy) - self.sy * bz);
+        let (cx, cy) = ((c[0] - ox) - self.sx * cz, (c[1] - oy) - self.sy * cz);
         let mut u = cx * by - cy * bx;
         let mut v = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
@@ -187,8 +192,7 @@ impl WatertightRay {
         if det == 0.0 {
             return None;
         }
-        let (az, bz, cz) = (self.sz * a[kz], self.sz * b[kz], self.sz * c[kz]);
-        let t = (u * az + v * bz + w * cz) / det;
+        let t = (u * (self.sz * az) + v * (self.sz * bz) + w * (self.sz * cz)) / det;
         (t >= t_min && t <= t_max).then_some(t)
     }
 }
