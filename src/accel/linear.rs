@@ -139,12 +139,23 @@ pub fn intersect_range(
             }
         }
         PrimKind::Triangle => {
+            // Four triangles a pass (a BVH leaf is at most four), the same bits as one at
+            // a time; the hits are then taken in pool order.
             let tri = &scene.triangles;
-            for i in range {
-                if let Some(t) = tri.intersect(i, &ray.triangle, t_min, *t_max) {
-                    keep_closest(best, hit(t, tri.id[i], kind, i, tri.object[i]));
-                    *t_max = t;
+            let mut start = range.start;
+            while start < range.end {
+                let n = (range.end - start).min(4);
+                let (t, mut mask) = tri.intersect4(start, n, &ray.triangle, t_min, *t_max);
+                while mask != 0 {
+                    let k = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    if t[k] <= *t_max {
+                        let i = start + k;
+                        keep_closest(best, hit(t[k], tri.id[i], kind, i, tri.object[i]));
+                        *t_max = t[k];
+                    }
                 }
+                start += n;
             }
         }
     }
@@ -183,12 +194,21 @@ pub fn occludes_range(
         }
         PrimKind::Triangle => {
             let tri = &scene.triangles;
-            range.into_iter().any(|i| {
-                tri.object[i] != object
-                    && tri
-                        .intersect(i, &ray.triangle, t_min, t_light)
-                        .is_some_and(|t| beats(t, tri.id[i]))
-            })
+            let mut start = range.start;
+            while start < range.end {
+                let n = (range.end - start).min(4);
+                let (t, mut mask) = tri.intersect4(start, n, &ray.triangle, t_min, t_light);
+                while mask != 0 {
+                    let k = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let i = start + k;
+                    if tri.object[i] != object && beats(t[k], tri.id[i]) {
+                        return true;
+                    }
+                }
+                start += n;
+            }
+            false
         }
     }
 }

@@ -4,7 +4,7 @@
 //! compiles to triangles.
 
 use super::{Aabb, Ray};
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 /// Triangles, structure-of-arrays, stored as their three vertices, each vertex as one
 /// array per axis: `a[axis][i]`. The watertight test reads the axes in the order its ray
@@ -85,6 +85,91 @@ impl TrianglePool {
     }
 }
 
+/// Four lanes of `values[start..start + n]` (n ≤ 4); lanes past `n` hold whatever follows
+/// (or 0 at the end of the pool) and must be masked by the caller.
+#[inline(always)]
+fn load4(values: &[f32], start: usize, n: usize) -> Vec4 {
+    match values.get(start..start + 4) {
+        Some(s) => Vec4::from_slice(s),
+        None => {
+            let mut a = [0.0; 4];
+            a[..n].copy_from_slice(&values[start..start + n]);
+            Vec4::from_array(a)
+        }
+    }
+}
+
+/// One vertex of four triangles, translated to the ray origin and sheared, as in
+/// `WatertightRay::intersect_permuted`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn sheared4(
+    p: &[Vec<f32>; 3],
+    start: usize,
+    n: usize,
+    [kx, ky, kz]: [usize; 3],
+    ox: Vec4,
+    oy: Vec4,
+    oz: Vec4,
+    sx: Vec4,
+    sy: Vec4,
+) -> (Vec4, Vec4, Vec4) {
+    let z = load4(&p[kz], start, n) - oz;
+    let x = (load4(&p[kx], start, n) - ox) - sx * z;
+    let y = (load4(&p[ky], start, n) - oy) - sy * z;
+    (x, y, z)
+}
+
+impl TrianglePool {
+    /// Triangles `start..start + n` (n ≤ 4, a BVH leaf) against one ray in one `Vec4` pass:
+    /// lane for lane the operations of `WatertightRay::intersect_permuted`, so the same
+    /// bits. Lanes whose edge function rounds to zero are redone one at a time (with that
+    /// test's f64 fallback). Returns the distances and the mask of lanes that hit.
+    #[inline]
+    pub fn intersect4(
+        &self,
+        start: usize,
+        n: usize,
+        ray: &WatertightRay,
+        t_min: f32,
+        t_max: f32,
+    ) -> ([f32; 4], u32) {
+        let [ox, oy, oz] = ray.origin.map(Vec4::splat);
+        let (sx, sy, sz) = (
+            Vec4::splat(ray.sx),
+            Vec4::splat(ray.sy),
+            Vec4::splat(ray.sz),
+        );
+        let (ax, ay, az) = sheared4(&self.a, start, n, ray.axes, ox, oy, oz, sx, sy);
+        let (bx, by, bz) = sheared4(&self.b, start, n, ray.axes, ox, oy, oz, sx, sy);
+        let (cx, cy, cz) = sheared4(&self.c, start, n, ray.axes, ox, oy, oz, sx, sy);
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        let zero = Vec4::ZERO;
+        let lanes = (1u32 << n) - 1;
+        let exact_zero = (u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero)).bitmask() & lanes;
+        let mixed = (u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero))
+            & (u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero));
+        let det = u + v + w;
+        let t = (u * (sz * az) + v * (sz * bz) + w * (sz * cz)) / det;
+        let hit =
+            !mixed & det.cmpne(zero) & t.cmpge(Vec4::splat(t_min)) & t.cmple(Vec4::splat(t_max));
+        let mut mask = hit.bitmask() & lanes & !exact_zero;
+        let mut out = t.to_array();
+        let mut redo = exact_zero;
+        while redo != 0 {
+            let k = redo.trailing_zeros() as usize;
+            redo &= redo - 1;
+            if let Some(tk) = self.intersect(start + k, ray, t_min, t_max) {
+                out[k] = tk;
+                mask |= 1 << k;
+            }
+        }
+        (out, mask)
+    }
+}
+
 /// Is the triangle usable: finite and of non-zero area?
 pub fn is_proper_triangle([a, b, c]: [Vec3; 3]) -> bool {
     let n = (b - a).cross(c - a);
@@ -119,8 +204,8 @@ pub struct WatertightRay {
 
 impl WatertightRay {
     pub fn new(ray: &Ray) -> Self {
-        let d = ray.dir;
-        let ad = d.abs();
+        let d = ray.dir.to_array();
+        let ad = ray.dir.abs();
         let kz = if ad.x > ad.y {
             if ad.x > ad.z {
                 0
@@ -132,13 +217,13 @@ impl WatertightRay {
         } else {
             2
         };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        // Keep the winding: swap when the dominant component is negative.
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
-        let o = ray.origin;
+        // Keep the winding: swap x and y when the dominant component is negative.
+        let (kx, ky) = if d[kz] < 0.0 {
+            ((kz + 2) % 3, (kz + 1) % 3)
+        } else {
+            ((kz + 1) % 3, (kz + 2) % 3)
+        };
+        let o = ray.origin.to_array();
         Self {
             axes: [kx, ky, kz],
             origin: [o[kx], o[ky], o[kz]],
@@ -220,6 +305,49 @@ mod tests {
         assert_eq!(hit(Vec3::new(0.0, 0.0, 1.0), -Vec3::Z), Some(1.0));
         assert_eq!(hit(Vec3::new(0.6, 0.6, 1.0), -Vec3::Z), None);
         assert_eq!(hit(Vec3::new(-0.01, 0.5, 1.0), -Vec3::Z), None);
+    }
+
+    #[test]
+    fn four_wide_test_gives_the_scalar_bits() {
+        // A fan of triangles sharing edges and a vertex (exact-zero edge functions for
+        // rays through them), against rays through vertices, edges and interiors.
+        let mut pool = TrianglePool::default();
+        let c = Vec3::new(0.0, 0.0, 0.0);
+        let ring: Vec<Vec3> = (0..7)
+            .map(|k| {
+                let a = k as f32 * 0.9;
+                Vec3::new(a.cos(), a.sin(), 0.1 * k as f32)
+            })
+            .collect();
+        for k in 0..6 {
+            pool.push([c, ring[k], ring[k + 1]], k as u32, 0);
+        }
+        let mut rays = 0;
+        for target in ring
+            .iter()
+            .chain([&c])
+            .flat_map(|&p| [p, p * 0.5, (p + c) * 0.25])
+        {
+            for origin in [
+                Vec3::new(0.1, 0.2, 3.0),
+                Vec3::new(-2.0, 0.5, -1.0),
+                Vec3::new(0.0, 0.0, 5.0),
+            ] {
+                let ray = WatertightRay::new(&Ray::new(origin, (target - origin).normalize()));
+                for start in [0, 2, 4] {
+                    let n = (6 - start).min(4);
+                    let (t, mask) = pool.intersect4(start, n, &ray, 1e-4, f32::INFINITY);
+                    for k in 0..n {
+                        let scalar = pool.intersect(start + k, &ray, 1e-4, f32::INFINITY);
+                        let simd = (mask >> k & 1 == 1).then_some(t[k]);
+                        assert_eq!(scalar.map(f32::to_bits), simd.map(f32::to_bits));
+                        rays += 1;
+                    }
+                    assert_eq!(mask >> n, 0);
+                }
+            }
+        }
+        assert!(rays > 100);
     }
 
     #[test]
