@@ -337,9 +337,9 @@ mod tests {
                 for start in [0, 2, 4] {
                     let n = (6 - start).min(4);
                     let (t, mask) = pool.intersect4(start, n, &ray, 1e-4, f32::INFINITY);
-                    for k in 0..n {
+                    for (k, &tk) in t.iter().enumerate().take(n) {
                         let scalar = pool.intersect(start + k, &ray, 1e-4, f32::INFINITY);
-                        let simd = (mask >> k & 1 == 1).then_some(t[k]);
+                        let simd = (mask >> k & 1 == 1).then_some(tk);
                         assert_eq!(scalar.map(f32::to_bits), simd.map(f32::to_bits));
                         rays += 1;
                     }
