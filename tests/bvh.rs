@@ -326,7 +326,10 @@ fn degenerate_inputs() {
     let film = render_with(&empty, AccelKind::Bvh, 2, 0).film;
     // The mean of 10 equal samples, within rounding.
     let bg = Vec3::new(0.2, 0.3, 0.4);
-    assert!(film.pixels.iter().all(|p| (*p - bg).abs().max_element() < 1e-6));
+    assert!(film
+        .pixels
+        .iter()
+        .all(|p| (*p - bg).abs().max_element() < 1e-6));
 
     // One triangle in a mesh; 500 copies of one triangle (all centroids equal: the
     // smallest id wins); zero-area triangles mixed into a mesh.
@@ -351,13 +354,17 @@ fn degenerate_inputs() {
         with_degenerate.push(*t);
         if i % 3 == 0 {
             with_degenerate.push([t[0], t[0], t[1]]); // repeated vertex
-            // Nearly collinear: the rounded midpoint may leave a needle of tiny area.
+                                                      // Nearly collinear: the rounded midpoint may leave a needle of tiny area.
             with_degenerate.push([t[0], (t[0] + t[1]) * 0.5, t[1]]);
         }
     }
     let dirty = mesh_only(&with_degenerate);
     // The 107 repeated-vertex faces are dropped at load; needles stay, in the tree.
-    assert!(dirty.degenerate_triangles >= 107, "{}", dirty.degenerate_triangles);
+    assert!(
+        dirty.degenerate_triangles >= 107,
+        "{}",
+        dirty.degenerate_triangles
+    );
     assert!(dirty.triangles.len() >= 320);
     assert_same_closest_hits(&dirty, 5_000, 8);
 }
