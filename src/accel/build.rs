@@ -9,11 +9,12 @@
 //!   chunks with min, max and integer sums, which are exact in any order.
 //!
 //! Speed. The first version made a bounds pass, a kind pass and one binning pass per
-//! axis at every node, partitioned with a branch per reference and boxed every node:
-//! `cargo bench --bench bvh -- build` took 7.3 ms for the bunny (4 968 triangles, one
-//! thread) and 1.8 s for the bunny subdivided to 1 271 808 triangles (two threads). This
-//! version builds the same tree (same splits, same node boxes) in about 1.7 ms and
-//! 0.37 s. In order of what it gained:
+//! axis at every node, partitioned with a branch per reference and boxed every node.
+//! `cargo bench --bench bvh -- build` (criterion medians, three alternating runs on the
+//! shared 2-core machine): bunny (4 968 triangles, one thread) 6.1 / 7.0 / 7.4 ms before,
+//! 1.5 / 1.6 / 1.9 ms now; bunny subdivided to 1 271 808 triangles (two threads)
+//! 0.91 / 0.97 / 1.15 s before, 0.29 / 0.31 / 0.32 s now. The tree is the same (same
+//! splits, same node boxes; `splits_are_the_first_versions` below). In order of gain:
 //!
 //! - A node reads its references twice: one pass bins them on all three axes at once,
 //!   one partitions them and collects both sides' centroid bounds. The sides' bounds
@@ -27,9 +28,19 @@
 //! - Boxes are eight SIMD lanes with the maximum negated (`Box8`), so a union is one
 //!   min; a reference is one aligned load (`PrimRef`).
 //! - Nodes of two references (a third of all nodes) skip the bins (`best_split_pair`).
-//! - Nodes go to a flat pre-order array (`BuildTree`), not one `Box` each.
+//! - Nodes go to arrays in pre-order (`BuildTree`), not one `Box` each, and a half built
+//!   in parallel keeps its own array instead of being copied into its parent's. Page
+//!   faults cost about 3 µs each on this machine, so new memory matters: a large build
+//!   still spends about a fifth of its time faulting in the references, the nodes and
+//!   the reordered pools.
 //! - The root's bounds and the bins of nodes above `PARALLEL_BIN_THRESHOLD` references
 //!   are computed in parallel chunks.
+//!
+//! Tried and dropped (slower, measured): sorting small nodes' references by bin instead
+//! of binning them; deciding the binary nodes while collapsing to 4-wide nodes (no
+//! stored binary tree), which moved large structs around and copied the parallel parts;
+//! masks of the non-empty bins computed from the counts (a wide load of counts just
+//! stored narrow stalls on store forwarding).
 
 use crate::geometry::{Aabb, PrimKind};
 use glam::Vec3;
@@ -37,6 +48,8 @@ use rayon::prelude::*;
 use wide::{f32x4, f32x8, i32x4, i32x8, CmpLt};
 
 pub const BINS: usize = 16;
+// `Grid::bins` masks bin indices with `BINS - 1`.
+const _: () = assert!(BINS.is_power_of_two());
 pub const MAX_LEAF: usize = 4;
 /// Cost of visiting a node relative to one primitive test.
 pub const TRAVERSAL_COST: f32 = 1.0;
@@ -110,33 +123,51 @@ impl PrimRef {
     }
 }
 
-/// A node of the binary build tree, in a pre-order array: an inner node's left child is
-/// the next node, its right child `first_or_right` nodes further on. Leaves name a range
-/// of the reference array.
+/// A node of the binary build tree (see `BuildTree`). Leaves name a range of the
+/// reference array.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BuildNode {
     pub bounds: Aabb,
-    /// Leaf: the first reference. Inner node: distance to the right child (relative, so a
-    /// subtree built on its own can be appended anywhere unchanged).
+    /// Leaf: the first reference. Inner node: where the right child is, relative (so a
+    /// subtree built on its own can go anywhere unchanged): `first_or_right` nodes
+    /// further on in the segment, or with `far` the first node of the segment
+    /// `first_or_right` segments further on.
     pub first_or_right: u32,
     /// References in a leaf; 0 for an inner node.
     pub count: u16,
+    /// Inner node: the right child starts another segment.
+    pub far: bool,
     /// The kind of a leaf's references (unused for inner nodes).
     pub kind: PrimKind,
 }
 
-/// The binary tree: `nodes[0]` is the root.
+/// A node of a `BuildTree`: (segment, index in the segment).
+pub type NodeId = (usize, usize);
+
+/// The binary tree, in segments: the root's, then one per half built in parallel, each
+/// in pre-order (an inner node's left child is the next node). The halves are not
+/// copied into their parents' arrays: on the 1.27M-triangle bunny those copies, and the
+/// page faults of the arrays they filled, cost about a tenth of the build. The root is
+/// node (0, 0).
 #[derive(Clone, Debug, PartialEq)]
 pub struct BuildTree {
-    pub nodes: Vec<BuildNode>,
+    pub segments: Vec<Vec<BuildNode>>,
 }
 
 impl BuildTree {
-    /// The children of node `i`, `None` for a leaf.
+    pub const ROOT: NodeId = (0, 0);
+
     #[inline]
-    pub fn children(&self, i: usize) -> Option<[usize; 2]> {
-        let n = &self.nodes[i];
-        (n.count == 0).then(|| [i + 1, i + n.first_or_right as usize])
+    pub fn node(&self, (s, i): NodeId) -> &BuildNode {
+        &self.segments[s][i]
+    }
+
+    /// The children of a node, `None` for a leaf.
+    #[inline]
+    pub fn children(&self, (s, i): NodeId) -> Option<[NodeId; 2]> {
+        let n = self.node((s, i));
+        let far = n.first_or_right as usize;
+        (n.count == 0).then(|| [(s, i + 1), if n.far { (s + far, 0) } else { (s, i + far) }])
     }
 }
 
@@ -154,9 +185,10 @@ pub fn build(refs: &mut [PrimRef]) -> Option<BuildTree> {
         Side::of(refs)
     };
     // A binary tree over n references has at most 2n − 1 nodes: never reallocates.
-    let mut nodes = Vec::with_capacity(2 * refs.len() - 1);
-    build_node(refs, 0, 0, &all, &mut Bins::new(), &mut nodes);
-    Some(BuildTree { nodes })
+    let (mut nodes, mut later) = (Vec::with_capacity(2 * refs.len() - 1), Vec::new());
+    build_node(refs, 0, 0, &all, &mut Bins::new(), &mut nodes, &mut later);
+    later.insert(0, nodes);
+    Some(BuildTree { segments: later })
 }
 
 /// A box as eight lanes: (min x, y, z, ·, −max x, y, z, ·). With the maximum negated, a
@@ -192,12 +224,14 @@ impl Box8 {
         (min - neg_max) * f32x4::splat(0.5)
     }
 
-    /// `Aabb::surface_area` of a non-empty box: the same operations in the same order.
+    /// `Aabb::surface_area` of a non-empty box, from s = −max + min = −(max − min): the
+    /// products of two extents are those of two s, so this is the same value (at most the
+    /// sign of a zero differs, which no comparison sees).
     #[inline(always)]
     fn area(&self) -> f32 {
-        let v = self.0.to_array();
-        let d = [-v[4] - v[0], -v[5] - v[1], -v[6] - v[2]];
-        2.0 * (d[0] * d[1] + d[1] * d[2] + d[2] * d[0])
+        let [min, neg_max]: [f32x4; 2] = bytemuck::cast(self.0);
+        let s = (neg_max + min).to_array();
+        2.0 * (s[0] * s[1] + s[1] * s[2] + s[2] * s[0])
     }
 
     fn aabb(&self) -> Aabb {
@@ -238,6 +272,7 @@ fn leaf(refs: &[PrimRef], offset: usize, bounds: Aabb) -> BuildNode {
         bounds,
         first_or_right: offset as u32,
         count: refs.len() as u16,
+        far: false,
         kind: refs[0].kind(),
     }
 }
@@ -315,9 +350,11 @@ impl Grid {
             .fast_trunc_int()
     }
 
+    /// `lanes` as indices. They are in range already; the mask tells the compiler, which
+    /// then checks no bounds in the binning loop.
     #[inline(always)]
     fn bins(&self, c: f32x4) -> [usize; 4] {
-        self.lanes(c).to_array().map(|b| b as usize)
+        self.lanes(c).to_array().map(|b| b as usize & (BINS - 1))
     }
 
     /// Is the bin of `c` on `axis` below `bin`? (A compare and a mask, no round trip
@@ -469,6 +506,8 @@ fn best_split_pair(
     Some(((cost, axis, bin + 1), (left, right)))
 }
 
+/// Build the subtree over `refs` (from `offset` in the whole array) into `out`, its
+/// segment, and `later`, the segments after it (`later[j]` is `j + 1` segments on).
 fn build_node(
     refs: &mut [PrimRef],
     offset: usize,
@@ -476,6 +515,7 @@ fn build_node(
     all: &Side,
     bins: &mut Bins,
     out: &mut Vec<BuildNode>,
+    later: &mut Vec<Vec<BuildNode>>,
 ) {
     let n = refs.len();
     let bounds = all.bounds.aabb();
@@ -554,30 +594,36 @@ fn build_node(
         bounds,
         first_or_right: 0,
         count: 0,
+        far: false,
         kind: PrimKind::Triangle,
     });
     if n > PARALLEL_THRESHOLD {
-        let ((), right_nodes) = rayon::join(
-            || build_node(left, offset, depth + 1, &l, bins, out),
+        let ((), (right_nodes, right_later)) = rayon::join(
+            || build_node(left, offset, depth + 1, &l, bins, out, later),
             || {
-                let mut nodes = Vec::with_capacity(2 * right.len() - 1);
+                let (mut nodes, mut later) = (Vec::with_capacity(2 * right.len() - 1), Vec::new());
+                let bins = &mut Bins::new();
                 build_node(
                     right,
                     offset + mid,
                     depth + 1,
                     &r,
-                    &mut Bins::new(),
+                    bins,
                     &mut nodes,
+                    &mut later,
                 );
-                nodes
+                (nodes, later)
             },
         );
-        out[me].first_or_right = (out.len() - me) as u32;
-        out.extend_from_slice(&right_nodes);
+        // The right half's segment comes after those the left half made.
+        out[me].first_or_right = (later.len() + 1) as u32;
+        out[me].far = true;
+        later.push(right_nodes);
+        later.extend(right_later);
     } else {
-        build_node(left, offset, depth + 1, &l, bins, out);
+        build_node(left, offset, depth + 1, &l, bins, out, later);
         out[me].first_or_right = (out.len() - me) as u32;
-        build_node(right, offset + mid, depth + 1, &r, bins, out);
+        build_node(right, offset + mid, depth + 1, &r, bins, out, later);
     }
 }
 
@@ -589,8 +635,8 @@ mod tests {
         PrimRef::new(Aabb::new(Vec3::splat(x), Vec3::splat(x + 1.0)), kind, index)
     }
 
-    fn check(tree: &BuildTree, i: usize, refs: &[PrimRef], seen: &mut Vec<u32>) {
-        let node = &tree.nodes[i];
+    fn check(tree: &BuildTree, i: NodeId, refs: &[PrimRef], seen: &mut Vec<u32>) {
+        let node = tree.node(i);
         match tree.children(i) {
             None => {
                 let (first, count) = (node.first_or_right as usize, node.count as usize);
@@ -603,7 +649,7 @@ mod tests {
             }
             Some(children) => {
                 for c in children {
-                    assert_eq!(node.bounds.union(tree.nodes[c].bounds), node.bounds);
+                    assert_eq!(node.bounds.union(tree.node(c).bounds), node.bounds);
                     check(tree, c, refs, seen);
                 }
             }
@@ -620,7 +666,7 @@ mod tests {
             .collect();
         let tree = build(&mut refs).unwrap();
         let mut seen = Vec::new();
-        check(&tree, 0, &refs, &mut seen);
+        check(&tree, BuildTree::ROOT, &refs, &mut seen);
         seen.sort_unstable();
         assert_eq!(seen, (0..100).collect::<Vec<u32>>());
     }
@@ -630,7 +676,7 @@ mod tests {
         let mut refs: Vec<PrimRef> = (0..1000).map(|i| r(0.0, PrimKind::Triangle, i)).collect();
         let tree = build(&mut refs).unwrap();
         let mut seen = Vec::new();
-        check(&tree, 0, &refs, &mut seen);
+        check(&tree, BuildTree::ROOT, &refs, &mut seen);
         assert_eq!(seen.len(), 1000);
     }
 
@@ -730,9 +776,9 @@ mod tests {
     }
 
     /// The references below node `i`.
-    fn count(tree: &BuildTree, i: usize) -> usize {
+    fn count(tree: &BuildTree, i: NodeId) -> usize {
         match tree.children(i) {
-            None => tree.nodes[i].count as usize,
+            None => tree.node(i).count as usize,
             Some([l, r]) => count(tree, l) + count(tree, r),
         }
     }
@@ -747,12 +793,12 @@ mod tests {
     /// version decided for its references: the same bounds, leaf or not, the same sides.
     fn check_against_reference(
         tree: &BuildTree,
-        i: usize,
+        i: NodeId,
         refs: &[PrimRef],
         range: (usize, usize),
         depth: u32,
     ) {
-        let node = &tree.nodes[i];
+        let node = tree.node(i);
         let here = &refs[range.0..range.1];
         let bounds = here.iter().fold(Aabb::EMPTY, |b, r| b.union(r.bounds()));
         assert_eq!(node.bounds, bounds);
@@ -792,7 +838,7 @@ mod tests {
         for (n, mixed, seed) in [(3000, 0, 1), (2000, 600, 2), (40, 40, 3)] {
             let mut refs = random_refs(n, mixed, seed);
             let tree = build(&mut refs).unwrap();
-            check_against_reference(&tree, 0, &refs, (0, n), 0);
+            check_against_reference(&tree, BuildTree::ROOT, &refs, (0, n), 0);
         }
     }
 
@@ -817,8 +863,11 @@ mod tests {
         // The root's split is the reference's.
         let left = reference_decision(&refs, 0).unwrap();
         let want = refs.iter().zip(&left).filter(|(_, &l)| l).map(|(r, _)| r);
-        let mid = count(&one, 1);
+        let mid = count(&one, (0, 1));
         assert_eq!(sorted_indices(refs_one[..mid].iter()), sorted_indices(want));
+        // And every node below, across the segments of the halves built in parallel.
+        assert!(one.segments.len() > 1);
+        check_against_reference(&one, BuildTree::ROOT, &refs_one, (0, refs.len()), 0);
     }
 
     #[test]
@@ -839,7 +888,7 @@ mod tests {
         assert!(build(&mut []).is_none());
         let mut one = [r(0.0, PrimKind::Sphere, 0)];
         let tree = build(&mut one).unwrap();
-        assert_eq!(tree.nodes.len(), 1);
-        assert_eq!(tree.nodes[0].count, 1);
+        assert_eq!(tree.segments, [[tree.segments[0][0]]]);
+        assert_eq!(tree.node(BuildTree::ROOT).count, 1);
     }
 }

@@ -5,7 +5,7 @@
 //! one ray tests all four with one `Vec4` pass. Leaves hold up to four primitives of one
 //! kind, contiguous in that kind's pool (the pools are reordered after the build).
 
-use super::build::{self, BuildTree, PrimRef};
+use super::build::{self, BuildTree, NodeId, PrimRef};
 use super::linear::{self, PrimRay};
 use super::TraversalStats;
 use crate::geometry::spawn::gamma;
@@ -255,8 +255,10 @@ impl Bvh4 {
             },
             || {
                 if let Some(tree) = &tree {
-                    bvh.nodes.reserve(tree.nodes.len() / 2);
-                    bvh.root = Some(bvh.collapse(tree, 0, position, 1));
+                    // About one node per 3.5 references (the subdivided bunny: 1 271 808
+                    // references, 360 189 nodes).
+                    bvh.nodes.reserve(refs.len() / 3);
+                    bvh.root = Some(bvh.collapse(tree, BuildTree::ROOT, position, 1));
                 }
             },
         );
@@ -269,12 +271,12 @@ impl Bvh4 {
     fn collapse(
         &mut self,
         tree: &BuildTree,
-        node: usize,
+        node: NodeId,
         position: Option<&[u32]>,
         depth: u32,
     ) -> u32 {
         let Some(children) = tree.children(node) else {
-            let leaf = &tree.nodes[node];
+            let leaf = tree.node(node);
             self.leaves += 1;
             self.depth = self.depth.max(depth);
             let first = leaf.first_or_right;
@@ -283,14 +285,14 @@ impl Bvh4 {
         };
         // Open the largest inner child until there are four (of equal areas the last, as
         // `Iterator::max_by` picks). An array, not a `Vec` per node.
-        let mut kids = [0usize; 4];
+        let mut kids = [BuildTree::ROOT; 4];
         kids[..2].copy_from_slice(&children);
         let mut len = 2;
         while len < 4 {
             let mut widest: Option<(usize, f32)> = None;
             for (i, &k) in kids[..len].iter().enumerate() {
                 if tree.children(k).is_some() {
-                    let area = tree.nodes[k].bounds.surface_area();
+                    let area = tree.node(k).bounds.surface_area();
                     if widest.is_none_or(|(_, w)| area.total_cmp(&w).is_ge()) {
                         widest = Some((i, area));
                     }
@@ -310,7 +312,7 @@ impl Bvh4 {
         let mut n = Node4::EMPTY;
         for (slot, &kid) in kids[..len].iter().enumerate() {
             let code = self.collapse(tree, kid, position, depth + 1);
-            n.set_child(slot, tree.nodes[kid].bounds, code);
+            n.set_child(slot, tree.node(kid).bounds, code);
         }
         self.nodes[index] = n;
         index as u32
