@@ -14,10 +14,20 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
+/// `--version` says whether the AVX2 lanes were compiled in (`.cargo/config.toml`).
+const VERSION: &str = if cfg!(target_feature = "avx2") {
+    concat!(env!("CARGO_PKG_VERSION"), " (AVX2 compiled in)")
+} else {
+    concat!(
+        env!("CARGO_PKG_VERSION"),
+        " (without AVX2: 8-wide packets run as two halves)"
+    )
+};
+
 #[derive(Debug, Parser)]
 #[command(
     name = "raytracer",
-    version,
+    version = VERSION,
     about = "A data-oriented SIMD packet ray tracer"
 )]
 pub struct Args {
@@ -161,11 +171,8 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         output::check_writable(report)?;
     }
     let notes = !args.quiet;
-    if args.packet_width != 1 && notes {
-        eprintln!(
-            "note: packet tracing is not built yet; --packet-width {} runs as 1",
-            args.packet_width
-        );
+    if args.packet_width == 8 && !crate::lanes::AVX2 && notes {
+        eprintln!("note: built without AVX2: 8-wide packets run as two 4-wide halves");
     }
 
     let overrides = Overrides {
@@ -197,7 +204,10 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     } else {
         None
     };
-    let settings = RenderSettings { seed: args.seed };
+    let settings = RenderSettings {
+        seed: args.seed,
+        packet_width: args.packet_width,
+    };
     let on_tile = || {
         if let Some(b) = &bar {
             b.inc(1)
@@ -252,6 +262,20 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
             per_ray(t.nodes),
             per_ray(t.prims)
         );
+        let w = args.packet_width;
+        if w > 1 {
+            let pct = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{:.1}%", x * 100.0));
+            let nodes = (t.packet_nodes > 0)
+                .then(|| t.packet_lanes as f64 / (t.packet_nodes * w as u64) as f64);
+            eprintln!(
+                "stats: {w}-wide packets (AVX2 {}): lane occupancy camera {}, shadow {}, mirror {}; at node visits {}",
+                if crate::lanes::AVX2 { "on" } else { "off" },
+                pct(counts.camera_packets.occupancy(w)),
+                pct(counts.shadow_packets.occupancy(w)),
+                pct(counts.mirror_packets.occupancy(w)),
+                pct(nodes),
+            );
+        }
     }
     if notes {
         let bad = rendered.film.non_finite_count();

@@ -11,6 +11,7 @@ pub mod error;
 pub mod generate;
 pub mod geometry;
 pub mod integrator;
+pub mod lanes;
 pub mod material;
 pub mod output;
 pub mod render;

@@ -2,12 +2,15 @@
 //! mean of its samples summed in sample order, so the image is the same for any thread
 //! count and tile order.
 
+use crate::accel::packet::MAX_WIDTH;
 use crate::accel::Accel;
 use crate::error::{Error, Result};
-use crate::integrator::{RayCounts, Tracer};
+use crate::integrator::{footprint, RayCounts, Tracer};
+use crate::lanes::Lane;
 use crate::scene::Scene;
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 use rayon::prelude::*;
+use wide::f32x8;
 
 /// Tile edge in pixels. A multiple of the packet footprints (4x2 and 2x2).
 pub const TILE: u32 = 16;
@@ -53,6 +56,17 @@ impl Film {
 #[derive(Clone, Copy, Debug)]
 pub struct RenderSettings {
     pub seed: u32,
+    /// Rays per packet: 1 (the scalar tracer), 4 or 8. The image is the same bits.
+    pub packet_width: u32,
+}
+
+impl RenderSettings {
+    pub fn new(seed: u32) -> Self {
+        Self {
+            seed,
+            packet_width: 1,
+        }
+    }
 }
 
 /// The result of a render.
@@ -82,6 +96,7 @@ pub fn render(
         .map(|&(tx, ty)| {
             let r = render_tile(
                 &tracer,
+                settings.packet_width,
                 tx * TILE,
                 ty * TILE,
                 (tx * TILE + TILE).min(w),
@@ -104,7 +119,28 @@ pub fn render(
     Ok(Rendered { film, counts })
 }
 
-fn render_tile(tracer: &Tracer, x0: u32, y0: u32, x1: u32, y1: u32) -> (Vec<Vec3>, RayCounts) {
+fn render_tile(
+    tracer: &Tracer,
+    packet_width: u32,
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
+) -> (Vec<Vec3>, RayCounts) {
+    match packet_width {
+        8 => render_tile_packets::<f32x8>(tracer, x0, y0, x1, y1),
+        4 => render_tile_packets::<Vec4>(tracer, x0, y0, x1, y1),
+        _ => render_tile_scalar(tracer, x0, y0, x1, y1),
+    }
+}
+
+fn render_tile_scalar(
+    tracer: &Tracer,
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
+) -> (Vec<Vec3>, RayCounts) {
     let spp = tracer.scene.spp;
     let mut counts = RayCounts::default();
     let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
@@ -115,6 +151,47 @@ fn render_tile(tracer: &Tracer, x0: u32, y0: u32, x1: u32, y1: u32) -> (Vec<Vec3
                 sum += tracer.sample(x, y, s, &mut counts);
             }
             pixels.push(sum / spp as f32);
+        }
+    }
+    (pixels, counts)
+}
+
+/// A tile in packets of `L::WIDTH` pixels (4x2 or 2x2); lanes past the tile's edge are
+/// inactive. Each pixel sums its samples in sample order, as the scalar tile does.
+fn render_tile_packets<L: Lane>(
+    tracer: &Tracer,
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
+) -> (Vec<Vec3>, RayCounts) {
+    let spp = tracer.scene.spp;
+    let (fw, fh) = footprint(L::WIDTH);
+    let tw = x1 - x0;
+    let mut counts = RayCounts::default();
+    let mut pixels = vec![Vec3::ZERO; (tw * (y1 - y0)) as usize];
+    for py in (y0..y1).step_by(fh as usize) {
+        for px in (x0..x1).step_by(fw as usize) {
+            let mut active = 0u32;
+            for k in 0..L::WIDTH as u32 {
+                let (x, y) = (px + k % fw, py + k / fw);
+                if x < x1 && y < y1 {
+                    active |= 1 << k;
+                }
+            }
+            let mut sums = [Vec3::ZERO; MAX_WIDTH];
+            for s in 0..spp {
+                let c = tracer.sample_packet::<L>(px, py, active, s, &mut counts);
+                for k in 0..L::WIDTH {
+                    sums[k] += c[k];
+                }
+            }
+            for k in 0..L::WIDTH as u32 {
+                if active >> k & 1 != 0 {
+                    let (x, y) = (px + k % fw, py + k / fw);
+                    pixels[((y - y0) * tw + (x - x0)) as usize] = sums[k as usize] / spp as f32;
+                }
+            }
         }
     }
     (pixels, counts)

@@ -10,6 +10,7 @@ use super::linear::{self, PrimRay};
 use super::TraversalStats;
 use crate::geometry::spawn::gamma;
 use crate::geometry::{Aabb, Hit, PrimKind, Ray};
+use crate::lanes::Lane;
 use crate::scene::Scene;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
@@ -92,8 +93,35 @@ impl Node4 {
 /// margin, so a primitive whose computed t lies a few ulps outside its box (its test
 /// rounds differently from the box's) is never culled: the BVH then returns exactly what
 /// the brute-force scan returns.
-const NEAR_SCALE: f32 = 1.0 - 2.0 * gamma(8);
-const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(8);
+pub(crate) const NEAR_SCALE: f32 = 1.0 - 2.0 * gamma(8);
+pub(crate) const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(8);
+
+/// The slab test over lanes: entry distance, and whether `[entry, exit]` overlaps
+/// `[t_min, t_max]`. The scalar traversal runs it on one ray and four child boxes, the
+/// packet traversal on a packet of rays and one box. `near` and `far` are the planes the
+/// ray's direction signs pick; `inv_near` and `inv_far` the reciprocal direction with
+/// the margins. `Lane::max`/`min` drop a NaN in their first operand.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn slab<L: Lane>(
+    near: [L; 3],
+    far: [L; 3],
+    origin: [L; 3],
+    inv_near: [L; 3],
+    inv_far: [L; 3],
+    t_min: L,
+    t_max: L,
+) -> (L, L::Mask) {
+    let near_x = (near[0] - origin[0]) * inv_near[0];
+    let near_y = (near[1] - origin[1]) * inv_near[1];
+    let near_z = (near[2] - origin[2]) * inv_near[2];
+    let far_x = (far[0] - origin[0]) * inv_far[0];
+    let far_y = (far[1] - origin[1]) * inv_far[1];
+    let far_z = (far[2] - origin[2]) * inv_far[2];
+    let enter = near_x.max(near_y.max(near_z.max(t_min)));
+    let exit = far_x.min(far_y.min(far_z.min(t_max)));
+    (enter, enter.le(exit))
+}
 
 /// Primitive pools with at most this many primitives of a kind stay out of the tree and
 /// are tested in a plain loop before traversal: big analytic primitives (the bunny
@@ -116,17 +144,18 @@ pub struct Bvh4 {
 }
 
 /// Per-ray constants of the box test.
-struct BoxRay {
-    origin: [Vec4; 3],
+#[derive(Clone, Copy, Debug)]
+pub struct BoxRay {
+    pub(crate) origin: [Vec4; 3],
     /// 1/d scaled by `NEAR_SCALE` and `FAR_SCALE`: the margins cost no multiply per node.
-    inv_near: [Vec4; 3],
-    inv_far: [Vec4; 3],
-    negative: [bool; 3],
+    pub(crate) inv_near: [Vec4; 3],
+    pub(crate) inv_far: [Vec4; 3],
+    pub(crate) negative: [bool; 3],
 }
 
 impl BoxRay {
     #[inline]
-    fn new(ray: &Ray) -> Self {
+    pub fn new(ray: &Ray) -> Self {
         let inv = Vec3::new(1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z);
         let near = inv * NEAR_SCALE;
         let far = inv * FAR_SCALE;
@@ -168,15 +197,16 @@ impl BoxRay {
         let (nx, fx) = pick(self.negative[0], &n.min_x, &n.max_x);
         let (ny, fy) = pick(self.negative[1], &n.min_y, &n.max_y);
         let (nz, fz) = pick(self.negative[2], &n.min_z, &n.max_z);
-        let near_x = (nx - self.origin[0]) * self.inv_near[0];
-        let near_y = (ny - self.origin[1]) * self.inv_near[1];
-        let near_z = (nz - self.origin[2]) * self.inv_near[2];
-        let far_x = (fx - self.origin[0]) * self.inv_far[0];
-        let far_y = (fy - self.origin[1]) * self.inv_far[1];
-        let far_z = (fz - self.origin[2]) * self.inv_far[2];
-        let enter = near_x.max(near_y.max(near_z.max(Vec4::splat(t_min))));
-        let exit = far_x.min(far_y.min(far_z.min(Vec4::splat(t_max))));
-        (enter, enter.cmple(exit).bitmask())
+        let (enter, hit) = slab(
+            [nx, ny, nz],
+            [fx, fy, fz],
+            self.origin,
+            self.inv_near,
+            self.inv_far,
+            Vec4::splat(t_min),
+            Vec4::splat(t_max),
+        );
+        (enter, hit.bitmask())
     }
 }
 
@@ -344,6 +374,27 @@ impl Bvh4 {
         }
         let Some(root) = self.root else { return best };
         let bray = BoxRay::new(ray);
+        self.closest_hit_from(
+            scene, root, &pray, &bray, t_min, &mut t_max, &mut best, stats,
+        );
+        best
+    }
+
+    /// Closest hit in the subtree `root` (a node or leaf code), improving on `best` and
+    /// shrinking `t_max`. The packet traversal finishes lanes with it.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn closest_hit_from(
+        &self,
+        scene: &Scene,
+        root: u32,
+        pray: &PrimRay,
+        bray: &BoxRay,
+        t_min: f32,
+        t_max: &mut f32,
+        best: &mut Option<Hit>,
+        stats: &mut TraversalStats,
+    ) {
         // Not zero-initialised: clearing 2 KiB per ray cost ~20% of the camera-ray rate on
         // `bunny` (perf, benches/bvh.rs). Only slots below `sp` are read, and each was
         // written before `sp` passed it.
@@ -354,19 +405,19 @@ impl Bvh4 {
             sp -= 1;
             // SAFETY: slot `sp` < the highest `sp` reached, all of which were written.
             let (code, enter) = unsafe { stack[sp].assume_init() };
-            if enter > t_max {
+            if enter > *t_max {
                 continue;
             }
             if code & LEAF != 0 {
                 let (kind, start, count) = decode_leaf(code);
                 stats.prims += count as u64;
                 let range = start as usize..(start + count) as usize;
-                linear::intersect_range(scene, kind, range, &pray, t_min, &mut t_max, &mut best);
+                linear::intersect_range(scene, kind, range, pray, t_min, t_max, best);
                 continue;
             }
             stats.nodes += 1;
             let node = &self.nodes[code as usize];
-            let (entry, mut mask) = bray.test(node, t_min, t_max);
+            let (entry, mut mask) = bray.test(node, t_min, *t_max);
             // Push the hit children farthest first, so the nearest is popped next.
             let mut hits = [(0u32, 0f32); 4];
             let mut k = 0;
@@ -387,7 +438,6 @@ impl Bvh4 {
                 sp += 1;
             }
         }
-        best
     }
 
     /// Is there a hit of another object than `object` that beats `(t_light, id_light)`
@@ -427,19 +477,39 @@ impl Bvh4 {
         }
         let Some(root) = self.root else { return false };
         let bray = BoxRay::new(ray);
+        self.occluded_from(
+            scene, root, &pray, &bray, t_min, t_light, id_light, object, stats,
+        )
+    }
+
+    /// `occluded` in the subtree `root` only.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn occluded_from(
+        &self,
+        scene: &Scene,
+        root: u32,
+        pray: &PrimRay,
+        bray: &BoxRay,
+        t_min: f32,
+        t_light: f32,
+        id_light: u32,
+        object: u32,
+        stats: &mut TraversalStats,
+    ) -> bool {
         let mut stack = [MaybeUninit::<u32>::uninit(); STACK_SIZE];
         stack[0].write(root);
         let mut sp = 1;
         while sp > 0 {
             sp -= 1;
-            // SAFETY: as in `closest_hit`, only written slots are read.
+            // SAFETY: as in `closest_hit_from`, only written slots are read.
             let code = unsafe { stack[sp].assume_init() };
             if code & LEAF != 0 {
                 let (kind, start, count) = decode_leaf(code);
                 stats.prims += count as u64;
                 let range = start as usize..(start + count) as usize;
                 if linear::occludes_range(
-                    scene, kind, range, &pray, t_min, t_light, id_light, object,
+                    scene, kind, range, pray, t_min, t_light, id_light, object,
                 ) {
                     return true;
                 }
@@ -467,7 +537,7 @@ fn kind_slot(kind: PrimKind) -> usize {
     }
 }
 
-fn pool_len(scene: &Scene, kind: PrimKind) -> usize {
+pub(crate) fn pool_len(scene: &Scene, kind: PrimKind) -> usize {
     match kind {
         PrimKind::Sphere => scene.spheres.len(),
         PrimKind::Quad => scene.quads.len(),

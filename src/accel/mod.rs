@@ -10,11 +10,14 @@
 pub mod build;
 pub mod bvh4;
 pub mod linear;
+pub mod packet;
 
 use crate::geometry::{Hit, Ray};
-use crate::scene::{Light, Scene};
+use crate::lanes::Lane;
+use crate::scene::{Light, LightShape, Scene};
 use bvh4::Bvh4;
 use linear::LinearScan;
+use packet::{RayPacket, MAX_WIDTH};
 
 /// The `--accel` choice.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
@@ -29,14 +32,21 @@ pub enum AccelKind {
 /// Work done by traversals: boxes (nodes) visited and primitives tested.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TraversalStats {
+    /// Nodes visited (a packet's visit counts once).
     pub nodes: u64,
+    /// Primitive tests (a packet's test counts once per lane it is run for).
     pub prims: u64,
+    /// Node visits by packets, and the lanes active at those visits (occupancy).
+    pub packet_nodes: u64,
+    pub packet_lanes: u64,
 }
 
 impl TraversalStats {
     pub fn add(&mut self, o: &TraversalStats) {
         self.nodes += o.nodes;
         self.prims += o.prims;
+        self.packet_nodes += o.packet_nodes;
+        self.packet_lanes += o.packet_lanes;
     }
 }
 
@@ -134,6 +144,88 @@ impl Accel {
                 None => false,
                 Some((t, id)) => !b.occluded(scene, ray, t_min, t, id, light.object, stats),
             },
+        }
+    }
+
+    /// `closest_hit` (from `t_min`, unbounded) for every active lane of a packet.
+    #[inline]
+    pub fn closest_hit_packet<L: Lane>(
+        &self,
+        scene: &Scene,
+        p: &RayPacket<L>,
+        t_min: f32,
+        stats: &mut TraversalStats,
+    ) -> [Option<Hit>; MAX_WIDTH] {
+        match self {
+            Accel::Linear(l) => std::array::from_fn(|k| {
+                if p.active >> k & 1 != 0 {
+                    l.closest_hit(scene, &p.rays[k], t_min, f32::INFINITY, stats)
+                } else {
+                    None
+                }
+            }),
+            Accel::Bvh(b) => b.closest_hit_packet(scene, p, t_min, stats),
+        }
+    }
+
+    /// `light_visible` for the lanes of `lanes`: the mask of those that see the light.
+    #[inline]
+    pub fn light_visible_packet<L: Lane>(
+        &self,
+        scene: &Scene,
+        p: &RayPacket<L>,
+        t_min: f32,
+        light: &Light,
+        lanes: u32,
+        stats: &mut TraversalStats,
+    ) -> u32 {
+        let lanes = lanes & p.active;
+        match self {
+            Accel::Linear(_) => {
+                let mut visible = 0;
+                for k in (0..L::WIDTH).filter(|k| lanes >> k & 1 != 0) {
+                    if self.light_visible(scene, &p.rays[k], t_min, light, stats) {
+                        visible |= 1 << k;
+                    }
+                }
+                visible
+            }
+            Accel::Bvh(b) => {
+                let mut t_light = [0.0; MAX_WIDTH];
+                let mut id_light = [0; MAX_WIDTH];
+                let mut reach = 0;
+                if let LightShape::Point { center, radius } = light.shape {
+                    // `nearest_hit` of a point light, lane-wise.
+                    let (t, hits) = p.sphere(center, radius, t_min, f32::INFINITY, lanes);
+                    reach = hits;
+                    for k in 0..L::WIDTH {
+                        t_light[k] = t.lane(k);
+                        id_light[k] = light.first_id;
+                    }
+                } else {
+                    for k in (0..L::WIDTH).filter(|k| lanes >> k & 1 != 0) {
+                        if let Some((t, id)) = light.nearest_hit(&p.rays[k], t_min) {
+                            t_light[k] = t;
+                            id_light[k] = id;
+                            reach |= 1 << k;
+                        }
+                    }
+                }
+                if reach == 0 {
+                    return 0;
+                }
+                let occluded = b.occluded_packet(
+                    scene,
+                    p,
+                    t_min,
+                    &t_light,
+                    &id_light,
+                    light.object,
+                    reach,
+                    stats,
+                );
+                reach & !occluded
+            }
         }
     }
 }

@@ -4,6 +4,7 @@
 //! compiles to six quads.
 
 use super::{Aabb, Ray};
+use crate::lanes::{Lane, V3};
 use glam::Vec3;
 
 /// The seed's parallel-ray threshold on `|n · d|`.
@@ -78,19 +79,19 @@ impl Quad {
     /// The seed's plane test: t from the plane equation, then 0 ≤ α, β ≤ 1 (inclusive).
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
-        let denom = self.normal.dot(ray.dir);
-        if denom.abs() < PARALLEL_EPSILON {
-            return None;
-        }
-        let t = (self.plane_d - self.normal.dot(ray.origin)) / denom;
-        if !(t >= t_min && t <= t_max) {
-            return None;
-        }
-        let hp = ray.at(t) - self.corner;
-        let alpha = self.w.dot(hp.cross(self.v));
-        let beta = self.w.dot(self.u.cross(hp));
-        let inside = (0.0..=1.0).contains(&alpha) && (0.0..=1.0).contains(&beta);
-        inside.then_some(t)
+        let (t, hit) = quad_distance(
+            V3::splat(self.corner),
+            V3::splat(self.u),
+            V3::splat(self.v),
+            V3::splat(self.normal),
+            self.plane_d,
+            V3::splat(self.w),
+            V3::splat(ray.origin),
+            V3::splat(ray.dir),
+            t_min,
+            t_max,
+        );
+        hit.then_some(t)
     }
 
     /// A point uniform over the quad's area from two uniform numbers in [0, 1).
@@ -181,6 +182,33 @@ impl QuadPool {
     pub fn intersect(&self, i: usize, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
         self.get(i).intersect(ray, t_min, t_max)
     }
+}
+
+/// The quad test over lanes (`Quad::intersect` is its one-lane case).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn quad_distance<L: Lane>(
+    corner: V3<L>,
+    u: V3<L>,
+    v: V3<L>,
+    normal: V3<L>,
+    plane_d: L,
+    w: V3<L>,
+    origin: V3<L>,
+    dir: V3<L>,
+    t_min: L,
+    t_max: L,
+) -> (L, L::Mask) {
+    let (zero, one) = (L::splat(0.0), L::splat(1.0));
+    let denom = normal.dot(dir);
+    let parallel = denom.abs().lt(L::splat(PARALLEL_EPSILON));
+    let t = (plane_d - normal.dot(origin)) / denom;
+    let in_range = t.ge(t_min) & t.le(t_max);
+    let hp = (origin + dir.scale(t)) - corner;
+    let alpha = w.dot(hp.cross(v));
+    let beta = w.dot(u.cross(hp));
+    let inside = alpha.ge(zero) & alpha.le(one) & beta.ge(zero) & beta.le(one);
+    (t, !parallel & in_range & inside)
 }
 
 /// The six outward-facing quads of the box with the given component-wise min and max

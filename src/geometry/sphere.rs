@@ -3,6 +3,7 @@
 //! Scene keys (read in `scene::desc`): `center`, `radius`.
 
 use super::{Aabb, Ray};
+use crate::lanes::{Lane, V3};
 use glam::Vec3;
 
 /// Spheres, structure-of-arrays.
@@ -125,40 +126,54 @@ pub fn sphere_intersect_with(
     t_min: f32,
     t_max: f32,
 ) -> Option<f32> {
-    let d = ray.dir;
-    let f = ray.origin - center;
-    let b = f.dot(d); // half of the usual b
+    let (t, hit) = sphere_distance(
+        V3::splat(center),
+        radius,
+        V3::splat(ray.origin),
+        V3::splat(ray.dir),
+        ray.a,
+        ray.inv_a,
+        t_min,
+        t_max,
+    );
+    hit.then_some(t)
+}
+
+/// The sphere test over lanes (the scalar test above is its one-lane case): the near
+/// root if it is in `[t_min, t_max]`, else the far root.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn sphere_distance<L: Lane>(
+    center: V3<L>,
+    radius: L,
+    origin: V3<L>,
+    dir: V3<L>,
+    a: L,
+    inv_a: L,
+    t_min: L,
+    t_max: L,
+) -> (L, L::Mask) {
+    let zero = L::splat(0.0);
+    let f = origin - center;
+    let b = f.dot(dir); // half of the usual b
     let c = f.dot(f) - radius * radius;
-    // Outside and moving away: both roots are negative (a shortcut, same answer).
-    if c > 0.0 && b > 0.0 {
-        return None;
-    }
-    let perp = f - d * (b * ray.inv_a);
-    let quarter_disc = ray.a * (radius * radius - perp.dot(perp));
-    if quarter_disc < 0.0 {
-        return None;
-    }
+    // Outside and moving away: both roots are negative.
+    let away = c.gt(zero) & b.gt(zero);
+    let perp = f - dir.scale(b * inv_a);
+    let quarter_disc = a * (radius * radius - perp.dot(perp));
     let root = quarter_disc.sqrt();
-    let q = if b >= 0.0 { -(b + root) } else { -(b - root) };
-    let (t0, t1) = if q == 0.0 {
-        // Origin on the sphere and the ray tangent to it: both roots are 0.
-        (0.0, 0.0)
-    } else {
-        let x0 = c / q;
-        let x1 = q * ray.inv_a;
-        if x0 <= x1 {
-            (x0, x1)
-        } else {
-            (x1, x0)
-        }
-    };
-    if t0 >= t_min && t0 <= t_max {
-        Some(t0)
-    } else if t1 >= t_min && t1 <= t_max {
-        Some(t1)
-    } else {
-        None
-    }
+    let q = L::select(b.ge(zero), -(b + root), -(b - root));
+    let x0 = c / q;
+    let x1 = q * inv_a;
+    let ordered = x0.le(x1);
+    // q = 0: origin on the sphere and the ray tangent to it: both roots are 0.
+    let tangent = q.eq(zero);
+    let t0 = L::select(tangent, zero, L::select(ordered, x0, x1));
+    let t1 = L::select(tangent, zero, L::select(ordered, x1, x0));
+    let in0 = t0.ge(t_min) & t0.le(t_max);
+    let in1 = t1.ge(t_min) & t1.le(t_max);
+    let hit = !away & !quarter_disc.lt(zero) & (in0 | in1);
+    (L::select(in0, t0, t1), hit)
 }
 
 #[cfg(test)]

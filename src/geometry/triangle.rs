@@ -4,6 +4,7 @@
 //! compiles to triangles.
 
 use super::{Aabb, Ray};
+use crate::lanes::Lane;
 use glam::{Vec3, Vec4};
 
 /// Triangles, structure-of-arrays, stored as their three vertices, each vertex as one
@@ -99,27 +100,6 @@ fn load4(values: &[f32], start: usize, n: usize) -> Vec4 {
     }
 }
 
-/// One vertex of four triangles, translated to the ray origin and sheared, as in
-/// `WatertightRay::intersect_permuted`.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn sheared4(
-    p: &[Vec<f32>; 3],
-    start: usize,
-    n: usize,
-    [kx, ky, kz]: [usize; 3],
-    ox: Vec4,
-    oy: Vec4,
-    oz: Vec4,
-    sx: Vec4,
-    sy: Vec4,
-) -> (Vec4, Vec4, Vec4) {
-    let z = load4(&p[kz], start, n) - oz;
-    let x = (load4(&p[kx], start, n) - ox) - sx * z;
-    let y = (load4(&p[ky], start, n) - oy) - sy * z;
-    (x, y, z)
-}
-
 impl TrianglePool {
     /// Triangles `start..start + n` (n ≤ 4, a BVH leaf) against one ray in one `Vec4` pass:
     /// lane for lane the operations of `WatertightRay::intersect_permuted`, so the same
@@ -134,27 +114,35 @@ impl TrianglePool {
         t_min: f32,
         t_max: f32,
     ) -> ([f32; 4], u32) {
-        let [ox, oy, oz] = ray.origin.map(Vec4::splat);
+        let o = ray.origin.map(Vec4::splat);
         let (sx, sy, sz) = (
             Vec4::splat(ray.sx),
             Vec4::splat(ray.sy),
             Vec4::splat(ray.sz),
         );
-        let (ax, ay, az) = sheared4(&self.a, start, n, ray.axes, ox, oy, oz, sx, sy);
-        let (bx, by, bz) = sheared4(&self.b, start, n, ray.axes, ox, oy, oz, sx, sy);
-        let (cx, cy, cz) = sheared4(&self.c, start, n, ray.axes, ox, oy, oz, sx, sy);
-        let u = cx * by - cy * bx;
-        let v = ax * cy - ay * cx;
-        let w = bx * ay - by * ax;
+        let [kx, ky, kz] = ray.axes;
+        let load = |p: &[Vec<f32>; 3]| {
+            let v = [
+                load4(&p[kx], start, n),
+                load4(&p[ky], start, n),
+                load4(&p[kz], start, n),
+            ];
+            shear(v, o, sx, sy)
+        };
+        let (a, b, c) = (load(&self.a), load(&self.b), load(&self.c));
+        let [u, v, w] = edge_functions(a, b, c);
         let zero = Vec4::ZERO;
         let lanes = (1u32 << n) - 1;
         let exact_zero = (u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero)).bitmask() & lanes;
-        let mixed = (u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero))
-            & (u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero));
-        let det = u + v + w;
-        let t = (u * (sz * az) + v * (sz * bz) + w * (sz * cz)) / det;
-        let hit =
-            !mixed & det.cmpne(zero) & t.cmpge(Vec4::splat(t_min)) & t.cmple(Vec4::splat(t_max));
+        let (t, hit) = watertight_distance(
+            [u, v, w],
+            a,
+            b,
+            c,
+            sz,
+            Vec4::splat(t_min),
+            Vec4::splat(t_max),
+        );
         let mut mask = hit.bitmask() & lanes & !exact_zero;
         let mut out = t.to_array();
         let mut redo = exact_zero;
@@ -205,7 +193,22 @@ pub struct WatertightRay {
 impl WatertightRay {
     pub fn new(ray: &Ray) -> Self {
         let d = ray.dir.to_array();
-        let ad = ray.dir.abs();
+        let [kx, ky, kz] = Self::axes(ray.dir);
+        let o = ray.origin.to_array();
+        Self {
+            axes: [kx, ky, kz],
+            origin: [o[kx], o[ky], o[kz]],
+            sx: d[kx] / d[kz],
+            sy: d[ky] / d[kz],
+            sz: 1.0 / d[kz],
+        }
+    }
+
+    /// The axis order [kx, ky, kz]: z the dominant direction axis, x and y swapped when
+    /// that component is negative (to keep the winding).
+    #[inline]
+    pub fn axes(dir: Vec3) -> [usize; 3] {
+        let ad = dir.abs();
         let kz = if ad.x > ad.y {
             if ad.x > ad.z {
                 0
@@ -217,19 +220,10 @@ impl WatertightRay {
         } else {
             2
         };
-        // Keep the winding: swap x and y when the dominant component is negative.
-        let (kx, ky) = if d[kz] < 0.0 {
-            ((kz + 2) % 3, (kz + 1) % 3)
+        if dir[kz] < 0.0 {
+            [(kz + 2) % 3, (kz + 1) % 3, kz]
         } else {
-            ((kz + 1) % 3, (kz + 2) % 3)
-        };
-        let o = ray.origin.to_array();
-        Self {
-            axes: [kx, ky, kz],
-            origin: [o[kx], o[ky], o[kz]],
-            sx: d[kx] / d[kz],
-            sy: d[ky] / d[kz],
-            sz: 1.0 / d[kz],
+            [(kz + 1) % 3, (kz + 2) % 3, kz]
         }
     }
 
@@ -254,32 +248,83 @@ impl WatertightRay {
         t_min: f32,
         t_max: f32,
     ) -> Option<f32> {
-        let [ox, oy, oz] = self.origin;
-        let (az, bz, cz) = (a[2] - oz, b[2] - oz, c[2] - oz);
-        let (ax, ay) = ((a[0] - ox) - self.sx * az, (a[1] - oy) - self.sy * az);
-        let (bx, by) = ((b[0] - ox) - self.sx * bz, (b[1] - oy) - self.sy * bz);
-        let (cx, cy) = ((c[0] - ox) - self.sx * cz, (c[1] - oy) - self.sy * cz);
-        let mut u = cx * by - cy * bx;
-        let mut v = ax * cy - ay * cx;
-        let mut w = bx * ay - by * ax;
+        let o = self.origin;
+        let a = shear(a, o, self.sx, self.sy);
+        let b = shear(b, o, self.sx, self.sy);
+        let c = shear(c, o, self.sx, self.sy);
+        let [mut u, mut v, mut w] = edge_functions(a, b, c);
         if u == 0.0 || v == 0.0 || w == 0.0 {
-            let (ax, ay, bx, by, cx, cy) = (
-                ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64,
-            );
-            u = (cx * by - cy * bx) as f32;
-            v = (ax * cy - ay * cx) as f32;
-            w = (bx * ay - by * ax) as f32;
+            [u, v, w] = edge_functions_f64(a, b, c);
         }
+        // The sign test alone rejects most misses: skip the division (same answer).
         if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
             return None;
         }
-        let det = u + v + w;
-        if det == 0.0 {
-            return None;
-        }
-        let t = (u * (self.sz * az) + v * (self.sz * bz) + w * (self.sz * cz)) / det;
-        (t >= t_min && t <= t_max).then_some(t)
+        let (t, hit) = watertight_distance([u, v, w], a, b, c, self.sz, t_min, t_max);
+        hit.then_some(t)
     }
+}
+
+// The watertight test in three steps, written once over `Lane` for every width: the
+// scalar test above, four triangles against one ray (`intersect4`) and one triangle
+// against a packet of rays (`accel::packet`).
+
+/// A vertex, in the ray's axis order, translated to the ray origin and sheared so the
+/// ray runs along +z.
+#[inline(always)]
+pub fn shear<L: Lane>(p: [L; 3], o: [L; 3], sx: L, sy: L) -> [L; 3] {
+    let z = p[2] - o[2];
+    [(p[0] - o[0]) - sx * z, (p[1] - o[1]) - sy * z, z]
+}
+
+/// The three edge functions (scaled barycentrics) of sheared vertices.
+#[inline(always)]
+pub fn edge_functions<L: Lane>(a: [L; 3], b: [L; 3], c: [L; 3]) -> [L; 3] {
+    [
+        c[0] * b[1] - c[1] * b[0],
+        a[0] * c[1] - a[1] * c[0],
+        b[0] * a[1] - b[1] * a[0],
+    ]
+}
+
+/// The edge functions recomputed in f64, for a lane where one rounded to exactly zero:
+/// the products of f32 values are exact in f64, so the sign is right.
+#[inline(never)]
+pub fn edge_functions_f64(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> [f32; 3] {
+    let (ax, ay, bx, by, cx, cy) = (
+        a[0] as f64,
+        a[1] as f64,
+        b[0] as f64,
+        b[1] as f64,
+        c[0] as f64,
+        c[1] as f64,
+    );
+    [
+        (cx * by - cy * bx) as f32,
+        (ax * cy - ay * cx) as f32,
+        (bx * ay - by * ax) as f32,
+    ]
+}
+
+/// Distance and hit mask from the edge functions: all of one sign (edges inclusive),
+/// a non-zero determinant and t in `[t_min, t_max]`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn watertight_distance<L: Lane>(
+    [u, v, w]: [L; 3],
+    a: [L; 3],
+    b: [L; 3],
+    c: [L; 3],
+    sz: L,
+    t_min: L,
+    t_max: L,
+) -> (L, L::Mask) {
+    let zero = L::splat(0.0);
+    let mixed = (u.lt(zero) | v.lt(zero) | w.lt(zero)) & (u.gt(zero) | v.gt(zero) | w.gt(zero));
+    let det = u + v + w;
+    let t = (u * (sz * a[2]) + v * (sz * b[2]) + w * (sz * c[2])) / det;
+    let hit = !mixed & det.ne(zero) & t.ge(t_min) & t.le(t_max);
+    (t, hit)
 }
 
 #[cfg(test)]

@@ -33,7 +33,7 @@ pub fn render_with(scene: &Scene, accel: AccelKind, threads: usize, seed: u32) -
         .num_threads(threads)
         .build()
         .unwrap();
-    pool.install(|| render(&scene, &accel, &RenderSettings { seed }, &|| {}))
+    pool.install(|| render(&scene, &accel, &RenderSettings::new(seed), &|| {}))
         .unwrap()
 }
 

@@ -4,6 +4,11 @@
 //! - Phong and PhongMirror return a final colour; Light returns its plain colour.
 //! - Diffuse, Metal and Dielectric scatter and the path continues, up to `max_depth`.
 //! - Every random number comes from `rng::SampleKey`, addressed by path vertex and slot.
+//! - `packet`: the same tracer over 4- and 8-wide packets, image for image the same bits.
+
+mod packet;
+
+pub use packet::footprint;
 
 use crate::accel::{Accel, TraversalStats};
 use crate::geometry::spawn::{planar_point, spawn_ray, sphere_point, ErrorPoint};
@@ -27,6 +32,35 @@ pub struct RayCounts {
     /// Mirror reflections and path-traced bounces.
     pub secondary: u64,
     pub traversal: TraversalStats,
+    /// Packets traced, by kind, and their active lanes (zero on the scalar path).
+    pub camera_packets: LaneUse,
+    pub shadow_packets: LaneUse,
+    pub mirror_packets: LaneUse,
+}
+
+/// Packets of one ray kind and the lanes that held a ray.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LaneUse {
+    pub packets: u64,
+    pub lanes: u64,
+}
+
+impl LaneUse {
+    #[inline]
+    pub fn record(&mut self, active: u32) {
+        self.packets += 1;
+        self.lanes += active.count_ones() as u64;
+    }
+
+    pub fn add(&mut self, o: &LaneUse) {
+        self.packets += o.packets;
+        self.lanes += o.lanes;
+    }
+
+    /// Active lanes / lanes, for packets `width` wide (`None` without packets).
+    pub fn occupancy(&self, width: u32) -> Option<f64> {
+        (self.packets > 0).then(|| self.lanes as f64 / (self.packets * width as u64) as f64)
+    }
 }
 
 impl RayCounts {
@@ -39,6 +73,9 @@ impl RayCounts {
         self.shadow += o.shadow;
         self.secondary += o.secondary;
         self.traversal.add(&o.traversal);
+        self.camera_packets.add(&o.camera_packets);
+        self.shadow_packets.add(&o.shadow_packets);
+        self.mirror_packets.add(&o.mirror_packets);
     }
 }
 
@@ -116,11 +153,22 @@ impl<'a> Tracer<'a> {
 
     /// The colour a camera ray sees; path-traced materials continue the path up to
     /// `max_depth`.
-    pub fn trace(&self, mut ray: Ray, key: SampleKey, counts: &mut RayCounts) -> Vec3 {
+    pub fn trace(&self, ray: Ray, key: SampleKey, counts: &mut RayCounts) -> Vec3 {
+        self.trace_from(ray, key, Vec3::ONE, 0, self.scene.max_depth, counts)
+    }
+
+    /// `trace` from path vertex `vertex` with `depth` bounces left and the path's
+    /// `throughput` so far (the packet tracer hands path-traced lanes over here).
+    pub fn trace_from(
+        &self,
+        mut ray: Ray,
+        key: SampleKey,
+        mut throughput: Vec3,
+        mut vertex: u32,
+        mut depth: u32,
+        counts: &mut RayCounts,
+    ) -> Vec3 {
         let scene = self.scene;
-        let mut throughput = Vec3::ONE;
-        let mut vertex = 0u32;
-        let mut depth = scene.max_depth;
         loop {
             if depth == 0 {
                 return Vec3::ZERO;
@@ -167,6 +215,69 @@ impl<'a> Tracer<'a> {
         vertex: u32,
         counts: &mut RayCounts,
     ) -> Vec3 {
+        self.phong_with(m, ray, s, key, vertex, |li, _, l| {
+            counts.shadow += 1;
+            let shadow_ray = spawn_ray(&s.point, s.normal, l);
+            self.accel.light_visible(
+                self.scene,
+                &shadow_ray,
+                T_MIN,
+                &self.scene.lights[li],
+                &mut counts.traversal,
+            )
+        })
+    }
+
+    /// The unit direction from a surface to sample `k` of light `li`, or `None` when
+    /// the sample is the point itself.
+    #[inline]
+    pub fn light_direction(
+        &self,
+        s: &Surface,
+        key: SampleKey,
+        vertex: u32,
+        li: usize,
+        k: u32,
+    ) -> Option<Vec3> {
+        let light = &self.scene.lights[li];
+        let target = match light.shape {
+            LightShape::Point { center, .. } => center,
+            _ => {
+                let u = |c| key.uniform(vertex, slot::light(li as u32, k, c));
+                light.sample(u(0), u(1), u(2))
+            }
+        };
+        let l = (target - s.point.point).normalize_or_zero();
+        (l != Vec3::ZERO).then_some(l)
+    }
+
+    /// Shadow ray `k` of light `li` from a surface: the direction to the light sample
+    /// and the spawned ray.
+    #[inline]
+    pub fn shadow_ray(
+        &self,
+        s: &Surface,
+        key: SampleKey,
+        vertex: u32,
+        li: usize,
+        k: u32,
+    ) -> Option<(Vec3, Ray)> {
+        let l = self.light_direction(s, key, vertex, li, k)?;
+        Some((l, spawn_ray(&s.point, s.normal, l)))
+    }
+
+    /// Phong shading with the visibility of each shadow ray `(light, sample, direction)`
+    /// given by `visible`: the scalar tracer traces it there, the packet tracer looks up
+    /// what a shadow packet found.
+    pub fn phong_with(
+        &self,
+        m: &Phong,
+        ray: &Ray,
+        s: &Surface,
+        key: SampleKey,
+        vertex: u32,
+        mut visible: impl FnMut(usize, u32, Vec3) -> bool,
+    ) -> Vec3 {
         let view = -ray.dir;
         let mut diffuse = Vec3::ZERO;
         let mut specular = Vec3::ZERO;
@@ -175,27 +286,10 @@ impl<'a> Tracer<'a> {
             let mut light_diffuse = Vec3::ZERO;
             let mut light_specular = Vec3::ZERO;
             for k in 0..n {
-                let target = match light.shape {
-                    LightShape::Point { center, .. } => center,
-                    _ => {
-                        let u = |c| key.uniform(vertex, slot::light(li as u32, k, c));
-                        light.sample(u(0), u(1), u(2))
-                    }
-                };
-                let l = (target - s.point.point).normalize_or_zero();
-                if l == Vec3::ZERO {
+                let Some(l) = self.light_direction(s, key, vertex, li, k) else {
                     continue;
-                }
-                counts.shadow += 1;
-                let shadow_ray = spawn_ray(&s.point, s.normal, l);
-                let visible = self.accel.light_visible(
-                    self.scene,
-                    &shadow_ray,
-                    T_MIN,
-                    light,
-                    &mut counts.traversal,
-                );
-                if !visible {
+                };
+                if !visible(li, k, l) {
                     continue;
                 }
                 let n_dot_l = s.normal.dot(l);
@@ -212,7 +306,7 @@ impl<'a> Tracer<'a> {
 
     /// Phong mixed with one mirror reflection: (1 − F)·Phong + F·reflected, F by Schlick.
     #[allow(clippy::too_many_arguments)]
-    fn phong_mirror(
+    pub fn phong_mirror(
         &self,
         m: &Phong,
         index: f32,

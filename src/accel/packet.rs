@@ -1,0 +1,641 @@
+//! Packet traversal of the 4-wide BVH: 4 or 8 rays, one per lane, tested against each
+//! child box and each leaf primitive in one pass of the lane kernels (`lanes`), with an
+//! active mask for divergence (`design.md` §3).
+//!
+//! Every lane gets exactly the scalar answer: the primitive kernels are the scalar ones
+//! run over lanes (same operations, same bits), the box tests are conservative for each
+//! lane (the same margins as the scalar test), and the closest hit is the smallest
+//! `(t, id)` whatever the visiting order. A subtree entered by few lanes
+//! (`Packet::fallback`) is finished one ray at a time by the scalar traversal.
+
+use super::bvh4::{decode_leaf, pool_len, slab, BoxRay, Bvh4, EMPTY, FAR_SCALE, LEAF, NEAR_SCALE};
+use super::linear::PrimRay;
+use super::TraversalStats;
+use crate::geometry::quad::quad_distance;
+use crate::geometry::sphere::sphere_distance;
+use crate::geometry::triangle::{edge_functions, shear, watertight_distance, WatertightRay};
+use crate::geometry::{keep_closest, Hit, PrimKind, Ray};
+use crate::lanes::{Lane, Mask, V3};
+use crate::scene::Scene;
+use std::mem::MaybeUninit;
+
+/// The widest packet.
+pub const MAX_WIDTH: usize = 8;
+
+const STACK_SIZE: usize = 256;
+
+/// A packet of rays with the per-lane constants of every test, computed lane-wise with
+/// the scalar constructors' operations (`BoxRay::new`, `SphereRay::new`,
+/// `WatertightRay::new`), so each lane holds the scalar values.
+#[derive(Clone, Debug)]
+pub struct RayPacket<L: Lane> {
+    /// Lanes holding a ray (bit i: lane i). Other lanes copy an active ray and are never
+    /// reported.
+    pub active: u32,
+    pub rays: [Ray; MAX_WIDTH],
+    origin: V3<L>,
+    dir: V3<L>,
+    inv_near: [L; 3],
+    inv_far: [L; 3],
+    /// Per axis: every lane's direction has this sign (then the box planes need no
+    /// per-lane select).
+    uniform_sign: [Option<bool>; 3],
+    negative: [L::Mask; 3],
+    sphere_a: L,
+    sphere_inv_a: L,
+    /// The watertight test's axis order, when every lane has the same one.
+    tri_axes: Option<[usize; 3]>,
+    tri_origin: [L; 3],
+    tri_sx: L,
+    tri_sy: L,
+    tri_sz: L,
+}
+
+impl<L: Lane> RayPacket<L> {
+    /// A packet of `rays[i]` for the lanes `i` set in `active` (`active` must not be
+    /// empty).
+    pub fn new(rays: &[Ray; MAX_WIDTH], active: u32) -> Self {
+        let w = L::WIDTH;
+        debug_assert!(active != 0 && active < (1 << w));
+        let first = active.trailing_zeros() as usize;
+        let mut all = *rays;
+        if active != (1 << w) - 1 {
+            for (i, r) in all.iter_mut().enumerate().take(w) {
+                if active >> i & 1 == 0 {
+                    *r = rays[first];
+                }
+            }
+        }
+        let origin = V3::new(
+            L::from_fn(|i| all[i].origin.x),
+            L::from_fn(|i| all[i].origin.y),
+            L::from_fn(|i| all[i].origin.z),
+        );
+        let dir = V3::new(
+            L::from_fn(|i| all[i].dir.x),
+            L::from_fn(|i| all[i].dir.y),
+            L::from_fn(|i| all[i].dir.z),
+        );
+        let zero = L::splat(0.0);
+        let lanes = (1u32 << w) - 1;
+        let uniform = |bits: u32| match bits {
+            0 => Some(false),
+            b if b == lanes => Some(true),
+            _ => None,
+        };
+        // BoxRay::new, lane-wise. (1/d is never −0, so `< 0` is its sign bit; a NaN
+        // direction hits nothing whichever planes it picks.)
+        let one = L::splat(1.0);
+        let inv = [one / dir.x, one / dir.y, one / dir.z];
+        let (near_scale, far_scale) = (L::splat(NEAR_SCALE), L::splat(FAR_SCALE));
+        let signs = inv.map(|x| x.lt(zero).bits());
+        // SphereRay::new, lane-wise.
+        let sphere_a = dir.dot(dir);
+        // WatertightRay::axes, lane-wise: when every lane picks the same axes the shear
+        // is lane-wise too, else it is computed lane by lane.
+        let (ax, ay, az) = (dir.x.abs(), dir.y.abs(), dir.z.abs());
+        let x_over_y = ax.gt(ay);
+        let kz_x = (x_over_y & ax.gt(az)).bits();
+        let kz_y = (!x_over_y & ay.gt(az)).bits();
+        let d = [dir.x, dir.y, dir.z];
+        let o = [origin.x, origin.y, origin.z];
+        let kz = match (uniform(kz_x), uniform(kz_y)) {
+            (Some(true), _) => Some(0),
+            (Some(false), Some(true)) => Some(1),
+            (Some(false), Some(false)) => Some(2),
+            _ => None,
+        };
+        let tri_axes = kz.and_then(|kz| {
+            uniform(d[kz].lt(zero).bits()).map(|negative| {
+                if negative {
+                    [(kz + 2) % 3, (kz + 1) % 3, kz]
+                } else {
+                    [(kz + 1) % 3, (kz + 2) % 3, kz]
+                }
+            })
+        });
+        let (tri_origin, tri_sx, tri_sy, tri_sz) = match tri_axes {
+            Some([kx, ky, kz]) => (
+                [o[kx], o[ky], o[kz]],
+                d[kx] / d[kz],
+                d[ky] / d[kz],
+                one / d[kz],
+            ),
+            None => {
+                let t: [WatertightRay; MAX_WIDTH] =
+                    std::array::from_fn(|i| WatertightRay::new(&all[i]));
+                (
+                    std::array::from_fn(|a| L::from_fn(|i| t[i].origin[a])),
+                    L::from_fn(|i| t[i].sx),
+                    L::from_fn(|i| t[i].sy),
+                    L::from_fn(|i| t[i].sz),
+                )
+            }
+        };
+        Self {
+            active,
+            rays: all,
+            origin,
+            dir,
+            inv_near: inv.map(|x| x * near_scale),
+            inv_far: inv.map(|x| x * far_scale),
+            uniform_sign: signs.map(uniform),
+            negative: signs.map(L::Mask::from_bits),
+            sphere_a,
+            sphere_inv_a: one / sphere_a,
+            tri_axes,
+            tri_origin,
+            tri_sx,
+            tri_sy,
+            tri_sz,
+        }
+    }
+
+    /// The sphere test on every lane, `SpherePool::intersect`'s bits: distances and the
+    /// lanes of `lanes` that hit in `[t_min, t_max]`.
+    #[inline]
+    pub fn sphere(
+        &self,
+        center: glam::Vec3,
+        radius: f32,
+        t_min: f32,
+        t_max: f32,
+        lanes: u32,
+    ) -> (L, u32) {
+        let (t, hit) = sphere_distance::<L>(
+            V3::splat(center),
+            L::splat(radius),
+            self.origin,
+            self.dir,
+            self.sphere_a,
+            self.sphere_inv_a,
+            L::splat(t_min),
+            L::splat(t_max),
+        );
+        (t, hit.bits() & lanes)
+    }
+
+    /// The scalar constants of lane `k`, for a subtree it finishes alone.
+    #[inline]
+    fn scalar(&self, k: usize) -> (PrimRay, BoxRay) {
+        (PrimRay::new(&self.rays[k]), BoxRay::new(&self.rays[k]))
+    }
+
+    /// Subtrees entered by at most this many lanes are finished one ray at a time.
+    #[inline]
+    pub fn fallback() -> u32 {
+        // 3 of 8 (design.md's starting point), 1 of 4.
+        (L::WIDTH as u32 * 3) / 8
+    }
+
+    /// Entry distances and hit lanes of one box, for lanes with `t_max` (−∞ for lanes not
+    /// tested).
+    #[inline(always)]
+    fn test_box(&self, lo: [f32; 3], hi: [f32; 3], t_min: L, t_max: L) -> (L, u32) {
+        let mut near = [L::splat(0.0); 3];
+        let mut far = [L::splat(0.0); 3];
+        for a in 0..3 {
+            let (l, h) = (L::splat(lo[a]), L::splat(hi[a]));
+            (near[a], far[a]) = match self.uniform_sign[a] {
+                Some(false) => (l, h),
+                Some(true) => (h, l),
+                None => (
+                    L::select(self.negative[a], h, l),
+                    L::select(self.negative[a], l, h),
+                ),
+            };
+        }
+        let o = [self.origin.x, self.origin.y, self.origin.z];
+        let (enter, hit) = slab(near, far, o, self.inv_near, self.inv_far, t_min, t_max);
+        (enter, hit.bits())
+    }
+
+    /// Distances and hit lanes (of `lanes`) of one primitive, with `t_max` per lane.
+    /// Triangle lanes whose edge function rounds to zero, or packets whose lanes order the
+    /// axes differently, are tested one lane at a time by the scalar test.
+    #[inline(always)]
+    fn test_prim(
+        &self,
+        scene: &Scene,
+        kind: PrimKind,
+        i: usize,
+        t_min: f32,
+        t_max: &[f32; MAX_WIDTH],
+        lanes: u32,
+    ) -> ([f32; MAX_WIDTH], u32) {
+        let t_min_l = L::splat(t_min);
+        let t_max_l = L::from_fn(|k| t_max[k]);
+        let mut out = [0.0; MAX_WIDTH];
+        let (t, mut bits, mut redo) = match kind {
+            PrimKind::Sphere => {
+                let s = &scene.spheres;
+                let (t, hit) = sphere_distance::<L>(
+                    V3::splat(s.center(i)),
+                    L::splat(s.radius[i]),
+                    self.origin,
+                    self.dir,
+                    self.sphere_a,
+                    self.sphere_inv_a,
+                    t_min_l,
+                    t_max_l,
+                );
+                (t, hit.bits(), 0)
+            }
+            PrimKind::Quad => {
+                let q = scene.quads.get(i);
+                let (t, hit) = quad_distance(
+                    V3::splat(q.corner),
+                    V3::splat(q.u),
+                    V3::splat(q.v),
+                    V3::splat(q.normal),
+                    L::splat(q.plane_d),
+                    V3::splat(q.w),
+                    self.origin,
+                    self.dir,
+                    t_min_l,
+                    t_max_l,
+                );
+                (t, hit.bits(), 0)
+            }
+            PrimKind::Triangle => match self.tri_axes {
+                Some([kx, ky, kz]) => {
+                    let tri = &scene.triangles;
+                    let vertex = |p: &[Vec<f32>; 3]| {
+                        let v = [L::splat(p[kx][i]), L::splat(p[ky][i]), L::splat(p[kz][i])];
+                        shear(v, self.tri_origin, self.tri_sx, self.tri_sy)
+                    };
+                    let (a, b, c) = (vertex(&tri.a), vertex(&tri.b), vertex(&tri.c));
+                    let [u, v, w] = edge_functions(a, b, c);
+                    let zero = L::splat(0.0);
+                    let exact_zero = (u.eq(zero) | v.eq(zero) | w.eq(zero)).bits();
+                    let (t, hit) =
+                        watertight_distance([u, v, w], a, b, c, self.tri_sz, t_min_l, t_max_l);
+                    (t, hit.bits() & !exact_zero, exact_zero)
+                }
+                None => (L::splat(0.0), 0, lanes),
+            },
+        };
+        bits &= lanes;
+        redo &= lanes;
+        for (k, o) in out.iter_mut().enumerate().take(L::WIDTH) {
+            *o = t.lane(k);
+        }
+        while redo != 0 {
+            let k = redo.trailing_zeros() as usize;
+            redo &= redo - 1;
+            let tri = &scene.triangles;
+            let ray = WatertightRay::new(&self.rays[k]);
+            if let Some(tk) = tri.intersect(i, &ray, t_min, t_max[k]) {
+                out[k] = tk;
+                bits |= 1 << k;
+            }
+        }
+        (out, bits)
+    }
+}
+
+/// Pool data of a primitive for a `Hit`.
+#[inline]
+fn ids(scene: &Scene, kind: PrimKind, i: usize) -> (u32, u32) {
+    match kind {
+        PrimKind::Sphere => (scene.spheres.id[i], scene.spheres.object[i]),
+        PrimKind::Quad => (scene.quads.id[i], scene.quads.object[i]),
+        PrimKind::Triangle => (scene.triangles.id[i], scene.triangles.object[i]),
+    }
+}
+
+const KINDS: [PrimKind; 3] = [PrimKind::Sphere, PrimKind::Quad, PrimKind::Triangle];
+
+/// Closest-hit state of a packet.
+struct Closest {
+    t_max: [f32; MAX_WIDTH],
+    best: [Option<Hit>; MAX_WIDTH],
+}
+
+impl Closest {
+    #[inline(always)]
+    fn leaf<L: Lane>(
+        &mut self,
+        scene: &Scene,
+        p: &RayPacket<L>,
+        kind: PrimKind,
+        range: std::ops::Range<usize>,
+        t_min: f32,
+        lanes: u32,
+    ) {
+        for i in range {
+            let (t, mut bits) = p.test_prim(scene, kind, i, t_min, &self.t_max, lanes);
+            if bits == 0 {
+                continue;
+            }
+            let (id, object) = ids(scene, kind, i);
+            while bits != 0 {
+                let k = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let hit = Hit {
+                    t: t[k],
+                    id,
+                    kind,
+                    index: i as u32,
+                    object,
+                };
+                keep_closest(&mut self.best[k], hit);
+                self.t_max[k] = t[k];
+            }
+        }
+    }
+}
+
+/// Lanes of `lanes` whose value in `t_max` is at least `t`.
+#[inline(always)]
+fn lanes_reaching(t_max: &[f32; MAX_WIDTH], lanes: u32, t: f32) -> u32 {
+    let mut m = 0;
+    let mut rest = lanes;
+    while rest != 0 {
+        let k = rest.trailing_zeros();
+        rest &= rest - 1;
+        m |= ((t_max[k as usize] >= t) as u32) << k;
+    }
+    m
+}
+
+impl Bvh4 {
+    /// The closest hit of every active lane in `[t_min, ∞)`, exactly as `closest_hit`
+    /// returns it for that lane's ray.
+    pub fn closest_hit_packet<L: Lane>(
+        &self,
+        scene: &Scene,
+        p: &RayPacket<L>,
+        t_min: f32,
+        stats: &mut TraversalStats,
+    ) -> [Option<Hit>; MAX_WIDTH] {
+        let mut st = Closest {
+            t_max: std::array::from_fn(|k| {
+                if p.active >> k & 1 != 0 {
+                    f32::INFINITY
+                } else {
+                    f32::NEG_INFINITY
+                }
+            }),
+            best: [None; MAX_WIDTH],
+        };
+        for (k, kind) in KINDS.into_iter().enumerate() {
+            if self.linear_kinds[k] {
+                let n = pool_len(scene, kind);
+                stats.prims += (n * p.active.count_ones() as usize) as u64;
+                st.leaf(scene, p, kind, 0..n, t_min, p.active);
+            }
+        }
+        let Some(root) = self.root else {
+            return st.best;
+        };
+        let fallback = RayPacket::<L>::fallback();
+        let mut stack = [MaybeUninit::<(u32, u32, f32)>::uninit(); STACK_SIZE];
+        stack[0].write((root, p.active, t_min));
+        let mut sp = 1;
+        while sp > 0 {
+            sp -= 1;
+            // SAFETY: slot `sp` < the highest `sp` reached, all of which were written.
+            let (code, lanes, enter) = unsafe { stack[sp].assume_init() };
+            // Lanes whose closest hit is already nearer than the box's entry (the
+            // smallest over the lanes that entered it) leave the subtree.
+            let lanes = lanes_reaching(&st.t_max, lanes, enter);
+            if lanes == 0 {
+                continue;
+            }
+            if code & LEAF != 0 {
+                let (kind, start, count) = decode_leaf(code);
+                stats.prims += (count * lanes.count_ones()) as u64;
+                st.leaf(
+                    scene,
+                    p,
+                    kind,
+                    start as usize..(start + count) as usize,
+                    t_min,
+                    lanes,
+                );
+                continue;
+            }
+            stats.nodes += 1;
+            stats.packet_nodes += 1;
+            stats.packet_lanes += lanes.count_ones() as u64;
+            let node = &self.nodes[code as usize];
+            let t_max = L::from_fn(|k| {
+                if lanes >> k & 1 != 0 {
+                    st.t_max[k]
+                } else {
+                    f32::NEG_INFINITY
+                }
+            });
+            let mut hits = [(0u32, 0u32, 0f32); 4];
+            let mut n = 0;
+            for c in 0..4 {
+                let child = node.child[c];
+                if child == EMPTY {
+                    continue;
+                }
+                let lo = [node.min_x[c], node.min_y[c], node.min_z[c]];
+                let hi = [node.max_x[c], node.max_y[c], node.max_z[c]];
+                let (entry, bits) = p.test_box(lo, hi, L::splat(t_min), t_max);
+                let bits = bits & lanes;
+                if bits == 0 {
+                    continue;
+                }
+                if bits.count_ones() <= fallback {
+                    let mut rest = bits;
+                    while rest != 0 {
+                        let k = rest.trailing_zeros() as usize;
+                        rest &= rest - 1;
+                        let (pray, bray) = p.scalar(k);
+                        self.closest_hit_from(
+                            scene,
+                            child,
+                            &pray,
+                            &bray,
+                            t_min,
+                            &mut st.t_max[k],
+                            &mut st.best[k],
+                            stats,
+                        );
+                    }
+                    continue;
+                }
+                let mut d = f32::INFINITY;
+                let mut rest = bits;
+                while rest != 0 {
+                    let k = rest.trailing_zeros() as usize;
+                    rest &= rest - 1;
+                    d = d.min(entry.lane(k));
+                }
+                // Insert sorted, farthest first, so the nearest is popped next.
+                let mut j = n;
+                while j > 0 && hits[j - 1].2 < d {
+                    hits[j] = hits[j - 1];
+                    j -= 1;
+                }
+                hits[j] = (child, bits, d);
+                n += 1;
+            }
+            for h in &hits[..n] {
+                stack[sp].write(*h);
+                sp += 1;
+            }
+        }
+        st.best
+    }
+
+    /// Shadow rays: the lanes of `lanes` for which a primitive of another object than
+    /// `object` beats `(t_light[k], id_light[k])` in `[t_min, t_light[k]]`, exactly as
+    /// `occluded` answers for each lane's ray.
+    #[allow(clippy::too_many_arguments)]
+    pub fn occluded_packet<L: Lane>(
+        &self,
+        scene: &Scene,
+        p: &RayPacket<L>,
+        t_min: f32,
+        t_light: &[f32; MAX_WIDTH],
+        id_light: &[u32; MAX_WIDTH],
+        object: u32,
+        lanes: u32,
+        stats: &mut TraversalStats,
+    ) -> u32 {
+        let mut remaining = lanes & p.active;
+        let mut occluded = 0u32;
+        // Lanes not tested get t_max = −∞ (no box or primitive test passes).
+        let mut t_max: [f32; MAX_WIDTH] = std::array::from_fn(|k| {
+            if remaining >> k & 1 != 0 {
+                t_light[k]
+            } else {
+                f32::NEG_INFINITY
+            }
+        });
+        let leaf = |kind: PrimKind,
+                    range: std::ops::Range<usize>,
+                    lanes: u32,
+                    t_max: &[f32; MAX_WIDTH]|
+         -> u32 {
+            let mut found = 0;
+            for i in range {
+                let (id, obj) = ids(scene, kind, i);
+                if obj == object {
+                    continue;
+                }
+                let (t, mut bits) = p.test_prim(scene, kind, i, t_min, t_max, lanes & !found);
+                while bits != 0 {
+                    let k = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    if t[k] < t_light[k] || id < id_light[k] {
+                        found |= 1 << k;
+                    }
+                }
+                if found == lanes {
+                    break;
+                }
+            }
+            found
+        };
+        for (k, kind) in KINDS.into_iter().enumerate() {
+            if self.linear_kinds[k] && remaining != 0 {
+                let n = pool_len(scene, kind);
+                stats.prims += (n * remaining.count_ones() as usize) as u64;
+                let found = leaf(kind, 0..n, remaining, &t_max);
+                occluded |= found;
+                remaining &= !found;
+            }
+        }
+        let Some(root) = self.root else {
+            return occluded;
+        };
+        if remaining == 0 {
+            return occluded;
+        }
+        for (k, t) in t_max.iter_mut().enumerate() {
+            if remaining >> k & 1 == 0 {
+                *t = f32::NEG_INFINITY;
+            }
+        }
+        let fallback = RayPacket::<L>::fallback();
+        let mut stack = [MaybeUninit::<(u32, u32)>::uninit(); STACK_SIZE];
+        stack[0].write((root, remaining));
+        let mut sp = 1;
+        while sp > 0 && remaining != 0 {
+            sp -= 1;
+            // SAFETY: as in `closest_hit_packet`.
+            let (code, lanes) = unsafe { stack[sp].assume_init() };
+            let lanes = lanes & remaining;
+            if lanes == 0 {
+                continue;
+            }
+            let mut found = 0;
+            if code & LEAF != 0 {
+                let (kind, start, count) = decode_leaf(code);
+                stats.prims += (count * lanes.count_ones()) as u64;
+                found = leaf(
+                    kind,
+                    start as usize..(start + count) as usize,
+                    lanes,
+                    &t_max,
+                );
+            } else {
+                stats.nodes += 1;
+                stats.packet_nodes += 1;
+                stats.packet_lanes += lanes.count_ones() as u64;
+                let node = &self.nodes[code as usize];
+                let t_max_l = L::from_fn(|k| {
+                    if lanes >> k & 1 != 0 {
+                        t_max[k]
+                    } else {
+                        f32::NEG_INFINITY
+                    }
+                });
+                for c in 0..4 {
+                    let child = node.child[c];
+                    if child == EMPTY {
+                        continue;
+                    }
+                    let lo = [node.min_x[c], node.min_y[c], node.min_z[c]];
+                    let hi = [node.max_x[c], node.max_y[c], node.max_z[c]];
+                    let (_, bits) = p.test_box(lo, hi, L::splat(t_min), t_max_l);
+                    let bits = bits & lanes & !found;
+                    if bits == 0 {
+                        continue;
+                    }
+                    if bits.count_ones() <= fallback {
+                        let mut rest = bits;
+                        while rest != 0 {
+                            let k = rest.trailing_zeros() as usize;
+                            rest &= rest - 1;
+                            let (pray, bray) = p.scalar(k);
+                            if self.occluded_from(
+                                scene,
+                                child,
+                                &pray,
+                                &bray,
+                                t_min,
+                                t_light[k],
+                                id_light[k],
+                                object,
+                                stats,
+                            ) {
+                                found |= 1 << k;
+                            }
+                        }
+                        continue;
+                    }
+                    stack[sp].write((child, bits));
+                    sp += 1;
+                }
+            }
+            if found != 0 {
+                occluded |= found;
+                remaining &= !found;
+                for (k, t) in t_max.iter_mut().enumerate() {
+                    if found >> k & 1 != 0 {
+                        *t = f32::NEG_INFINITY;
+                    }
+                }
+            }
+        }
+        occluded
+    }
+}

@@ -1,0 +1,231 @@
+//! The packet tracer: the scalar tracer's semantics over 4- or 8-wide packets.
+//!
+//! An 8-wide packet covers 4x2 pixels (a 4-wide one 2x2), all at the same sample index.
+//! Camera rays, shadow rays (one packet per light sample) and PhongMirror reflections
+//! travel as packets through `Accel::closest_hit_packet` / `light_visible_packet`, whose
+//! per-lane answers are the scalar ones. Shading runs per lane through the scalar code
+//! (`Tracer::surface`, `phong_with`, `scatter`), fed with the packet's hits and
+//! visibilities, and path-traced bounces leave the packet for `Tracer::trace_from`. So
+//! every lane computes exactly what the scalar tracer computes for its pixel: the image
+//! is the same bits at every width (tests/packets.rs).
+
+use super::{scatter, RayCounts, Surface, Tracer, T_MIN};
+use crate::accel::packet::{RayPacket, MAX_WIDTH};
+use crate::geometry::spawn::spawn_ray;
+use crate::geometry::Ray;
+use crate::lanes::Lane;
+use crate::material::{reflect, schlick, Material};
+use crate::rng::{slot, SampleKey, MAX_LIGHT_SAMPLES};
+use glam::Vec3;
+
+/// The pixels a packet of `width` lanes covers: 4x2 for 8 lanes, 2x2 for 4, 1x1 for 1.
+pub const fn footprint(width: usize) -> (u32, u32) {
+    match width {
+        8 => (4, 2),
+        4 => (2, 2),
+        _ => (1, 1),
+    }
+}
+
+/// The lanes set in `mask`, in lane order.
+#[inline]
+fn lanes(mask: u32) -> impl Iterator<Item = usize> {
+    let mut rest = mask;
+    std::iter::from_fn(move || {
+        (rest != 0).then(|| {
+            let k = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            k
+        })
+    })
+}
+
+const NO_RAY: Ray = Ray {
+    origin: Vec3::ZERO,
+    dir: Vec3::X,
+};
+
+impl Tracer<'_> {
+    /// Camera sample `sample` of the pixels of a packet whose lane 0 is pixel (x0, y0):
+    /// lane i is pixel (x0 + i mod w, y0 + i div w) of the footprint, traced if bit i
+    /// of `active` is set. Lane i's colour is `sample(x, y, sample)` of its pixel.
+    pub fn sample_packet<L: Lane>(
+        &self,
+        x0: u32,
+        y0: u32,
+        active: u32,
+        sample: u32,
+        counts: &mut RayCounts,
+    ) -> [Vec3; MAX_WIDTH] {
+        let (fw, _) = footprint(L::WIDTH);
+        let mut keys = [SampleKey(0); MAX_WIDTH];
+        let mut rays = [NO_RAY; MAX_WIDTH];
+        for k in lanes(active) {
+            let (x, y) = (x0 + k as u32 % fw, y0 + k as u32 / fw);
+            let key = SampleKey::new(self.seed, x, y, sample);
+            let jx = key.uniform(0, slot::JITTER_X);
+            let jy = key.uniform(0, slot::JITTER_Y);
+            keys[k] = key;
+            rays[k] = self.scene.camera.ray(x, y, jx, jy);
+        }
+        counts.camera += active.count_ones() as u64;
+        counts.camera_packets.record(active);
+        self.shade_packet::<L>(&rays, active, &keys, 0, self.scene.max_depth, true, counts)
+    }
+
+    /// The colours the lanes' rays see at path vertex `vertex`. With `camera`, the
+    /// semantics of `trace` (budget = bounces left; path-traced materials continue the
+    /// path); without, those of `evaluate_once` (what a mirror sees; budget = mirror
+    /// reflections left).
+    #[allow(clippy::too_many_arguments)]
+    fn shade_packet<L: Lane>(
+        &self,
+        rays: &[Ray; MAX_WIDTH],
+        active: u32,
+        keys: &[SampleKey; MAX_WIDTH],
+        vertex: u32,
+        budget: u32,
+        camera: bool,
+        counts: &mut RayCounts,
+    ) -> [Vec3; MAX_WIDTH] {
+        let mut out = [Vec3::ZERO; MAX_WIDTH];
+        if budget == 0 || active == 0 {
+            return out;
+        }
+        let scene = self.scene;
+        // `trace` multiplies what it returns by the path throughput, which is one at the
+        // camera vertex: keep the multiplication so the bits are the scalar ones.
+        let weight = |c: Vec3| if camera { Vec3::ONE * c } else { c };
+        let packet = RayPacket::<L>::new(rays, active);
+        let hits = self
+            .accel
+            .closest_hit_packet(scene, &packet, T_MIN, &mut counts.traversal);
+        let mut surfaces: [Option<Surface>; MAX_WIDTH] = [None; MAX_WIDTH];
+        let mut phong_lanes = 0u32;
+        let mut mirror_lanes = 0u32;
+        for k in lanes(active) {
+            let Some(hit) = hits[k] else {
+                out[k] = weight(scene.background);
+                continue;
+            };
+            let s = self.surface(&rays[k], &hit);
+            surfaces[k] = Some(s);
+            let material = scene.material_of(hit.object);
+            match *material {
+                Material::Light { color, .. } => out[k] = weight(color),
+                Material::Phong(_) => phong_lanes |= 1 << k,
+                Material::PhongMirror { .. } => {
+                    phong_lanes |= 1 << k;
+                    mirror_lanes |= 1 << k;
+                }
+                Material::Diffuse { albedo } | Material::Metal { albedo, .. } if !camera => {
+                    out[k] = albedo
+                }
+                Material::Dielectric { .. } if !camera => out[k] = Vec3::ONE,
+                _ => {
+                    // A path-traced bounce: on alone, one ray at a time.
+                    out[k] = match scatter(material, &rays[k], &s, keys[k], vertex) {
+                        Some((attenuation, dir)) => {
+                            let throughput = Vec3::ONE * attenuation;
+                            let next = spawn_ray(&s.point, s.normal, dir);
+                            counts.secondary += 1;
+                            self.trace_from(
+                                next,
+                                keys[k],
+                                throughput,
+                                vertex + 1,
+                                budget - 1,
+                                counts,
+                            )
+                        }
+                        None => Vec3::ZERO,
+                    };
+                }
+            }
+        }
+        if phong_lanes == 0 {
+            return out;
+        }
+
+        // Shadow rays: one packet per light sample, over the lanes that shade with Phong.
+        let n = scene.lights.len() * MAX_LIGHT_SAMPLES as usize;
+        let mut on_stack = [0u32; 64];
+        let mut on_heap = Vec::new();
+        let visible: &mut [u32] = if n <= on_stack.len() {
+            &mut on_stack[..n]
+        } else {
+            on_heap.resize(n, 0);
+            &mut on_heap
+        };
+        for (li, light) in scene.lights.iter().enumerate() {
+            for j in 0..light.samples() {
+                let mut shadow = [NO_RAY; MAX_WIDTH];
+                let mut m = 0u32;
+                for k in lanes(phong_lanes) {
+                    let s = surfaces[k].as_ref().expect("a Phong lane has a surface");
+                    if let Some((_, r)) = self.shadow_ray(s, keys[k], vertex, li, j) {
+                        shadow[k] = r;
+                        m |= 1 << k;
+                    }
+                }
+                if m == 0 {
+                    continue;
+                }
+                counts.shadow += m.count_ones() as u64;
+                counts.shadow_packets.record(m);
+                let p = RayPacket::<L>::new(&shadow, m);
+                visible[li * MAX_LIGHT_SAMPLES as usize + j as usize] = self
+                    .accel
+                    .light_visible_packet(scene, &p, T_MIN, light, m, &mut counts.traversal);
+            }
+        }
+        let mut local = [Vec3::ZERO; MAX_WIDTH];
+        for k in lanes(phong_lanes) {
+            let s = surfaces[k].as_ref().expect("a Phong lane has a surface");
+            let hit = hits[k].expect("a Phong lane has a hit");
+            let phong = match scene.material_of(hit.object) {
+                Material::Phong(p) | Material::PhongMirror { phong: p, .. } => p,
+                _ => unreachable!("only Phong lanes are shaded here"),
+            };
+            local[k] = self.phong_with(phong, &rays[k], s, keys[k], vertex, |li, j, _| {
+                visible[li * MAX_LIGHT_SAMPLES as usize + j as usize] >> k & 1 != 0
+            });
+            if mirror_lanes >> k & 1 == 0 {
+                out[k] = weight(local[k]);
+            }
+        }
+        if mirror_lanes == 0 {
+            return out;
+        }
+
+        // PhongMirror: the reflections as one packet, then the Schlick mix.
+        let mut reflected_rays = [NO_RAY; MAX_WIDTH];
+        for k in lanes(mirror_lanes) {
+            let s = surfaces[k].as_ref().expect("a mirror lane has a surface");
+            let dir = reflect(rays[k].dir, s.normal).normalize();
+            reflected_rays[k] = spawn_ray(&s.point, s.normal, dir);
+        }
+        counts.secondary += mirror_lanes.count_ones() as u64;
+        counts.mirror_packets.record(mirror_lanes);
+        let reflected = self.shade_packet::<L>(
+            &reflected_rays,
+            mirror_lanes,
+            keys,
+            vertex + 1,
+            budget - 1,
+            false,
+            counts,
+        );
+        for k in lanes(mirror_lanes) {
+            let s = surfaces[k].as_ref().expect("a mirror lane has a surface");
+            let hit = hits[k].expect("a mirror lane has a hit");
+            let Material::PhongMirror { index, .. } = *scene.material_of(hit.object) else {
+                unreachable!("only PhongMirror lanes reflect")
+            };
+            let cosine = (-rays[k].dir.dot(s.normal)).min(1.0);
+            let f = schlick(cosine, index);
+            out[k] = weight(local[k] * (1.0 - f) + reflected[k] * f);
+        }
+        out
+    }
+}

@@ -1,0 +1,452 @@
+//! Lanes: the small vector trait every geometric kernel is written over, so the scalar
+//! reference and the packet tracers run the same operations (`design.md` §2).
+//!
+//! Implemented for `f32` (one ray, the reference), `glam::Vec4` with `BVec4A` masks
+//! (4 wide) and `wide::f32x8` (8 wide; without AVX, `wide` runs it as two 4-wide halves).
+//!
+//! Rules that keep the widths bit-identical:
+//! - only `+ − × ÷` and `sqrt`, which IEEE 754 rounds exactly in every width; no fused
+//!   multiply-add, no approximate reciprocal;
+//! - one NaN rule for `min`/`max`, the SSE one: `a.min(b)` is `if a < b { a } else { b }`,
+//!   so a NaN in either operand yields `b` (the box test relies on it to drop 0·∞);
+//! - the same operand order everywhere (`V3::dot` is `(x·x + y·y) + z·z`, as glam's).
+
+use glam::{BVec4A, Vec4};
+use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
+use wide::{f32x8, CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, CmpNe};
+
+/// Whether the 8-wide lanes run as one AVX register (else as two SSE halves).
+pub const AVX2: bool = cfg!(target_feature = "avx2");
+
+/// A lane mask: one bit per lane.
+pub trait Mask: Copy + BitAnd<Output = Self> + BitOr<Output = Self> + Not<Output = Self> {
+    /// Bit `i` set when lane `i` is set.
+    fn bits(self) -> u32;
+    /// Lanes `i` with bit `i` of `bits` set.
+    fn from_bits(bits: u32) -> Self;
+    #[inline(always)]
+    fn any(self) -> bool {
+        self.bits() != 0
+    }
+}
+
+/// A vector of `WIDTH` f32 lanes.
+pub trait Lane:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+{
+    type Mask: Mask;
+    const WIDTH: usize;
+    fn splat(x: f32) -> Self;
+    /// Lane `i` is `f(i)`.
+    fn from_fn(f: impl FnMut(usize) -> f32) -> Self;
+    fn lane(self, i: usize) -> f32;
+    /// `m ? a : b`, lane by lane.
+    fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    fn lt(self, o: Self) -> Self::Mask;
+    fn le(self, o: Self) -> Self::Mask;
+    fn gt(self, o: Self) -> Self::Mask;
+    fn ge(self, o: Self) -> Self::Mask;
+    fn eq(self, o: Self) -> Self::Mask;
+    fn ne(self, o: Self) -> Self::Mask;
+    /// `if self < o { self } else { o }` (a NaN yields `o`).
+    fn min(self, o: Self) -> Self;
+    /// `if self > o { self } else { o }` (a NaN yields `o`).
+    fn max(self, o: Self) -> Self;
+    fn sqrt(self) -> Self;
+    fn abs(self) -> Self;
+}
+
+impl Mask for bool {
+    #[inline(always)]
+    fn bits(self) -> u32 {
+        self as u32
+    }
+    #[inline(always)]
+    fn from_bits(bits: u32) -> Self {
+        bits & 1 != 0
+    }
+}
+
+impl Lane for f32 {
+    type Mask = bool;
+    const WIDTH: usize = 1;
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        x
+    }
+    #[inline(always)]
+    fn from_fn(mut f: impl FnMut(usize) -> f32) -> Self {
+        f(0)
+    }
+    #[inline(always)]
+    fn lane(self, _: usize) -> f32 {
+        self
+    }
+    #[inline(always)]
+    fn select(m: bool, a: Self, b: Self) -> Self {
+        if m {
+            a
+        } else {
+            b
+        }
+    }
+    #[inline(always)]
+    fn lt(self, o: Self) -> bool {
+        self < o
+    }
+    #[inline(always)]
+    fn le(self, o: Self) -> bool {
+        self <= o
+    }
+    #[inline(always)]
+    fn gt(self, o: Self) -> bool {
+        self > o
+    }
+    #[inline(always)]
+    fn ge(self, o: Self) -> bool {
+        self >= o
+    }
+    #[inline(always)]
+    fn eq(self, o: Self) -> bool {
+        self == o
+    }
+    #[inline(always)]
+    fn ne(self, o: Self) -> bool {
+        self != o
+    }
+    #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        if self < o {
+            self
+        } else {
+            o
+        }
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        if self > o {
+            self
+        } else {
+            o
+        }
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f32::sqrt(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f32::abs(self)
+    }
+}
+
+impl Mask for BVec4A {
+    #[inline(always)]
+    fn bits(self) -> u32 {
+        self.bitmask()
+    }
+    #[inline(always)]
+    fn from_bits(bits: u32) -> Self {
+        BVec4A::new(bits & 1 != 0, bits & 2 != 0, bits & 4 != 0, bits & 8 != 0)
+    }
+}
+
+impl Lane for Vec4 {
+    type Mask = BVec4A;
+    const WIDTH: usize = 4;
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        Vec4::splat(x)
+    }
+    #[inline(always)]
+    fn from_fn(mut f: impl FnMut(usize) -> f32) -> Self {
+        Vec4::new(f(0), f(1), f(2), f(3))
+    }
+    #[inline(always)]
+    fn lane(self, i: usize) -> f32 {
+        self[i]
+    }
+    #[inline(always)]
+    fn select(m: BVec4A, a: Self, b: Self) -> Self {
+        Vec4::select(m, a, b)
+    }
+    #[inline(always)]
+    fn lt(self, o: Self) -> BVec4A {
+        self.cmplt(o)
+    }
+    #[inline(always)]
+    fn le(self, o: Self) -> BVec4A {
+        self.cmple(o)
+    }
+    #[inline(always)]
+    fn gt(self, o: Self) -> BVec4A {
+        self.cmpgt(o)
+    }
+    #[inline(always)]
+    fn ge(self, o: Self) -> BVec4A {
+        self.cmpge(o)
+    }
+    #[inline(always)]
+    fn eq(self, o: Self) -> BVec4A {
+        self.cmpeq(o)
+    }
+    #[inline(always)]
+    fn ne(self, o: Self) -> BVec4A {
+        self.cmpne(o)
+    }
+    // glam's `Vec4::min`/`max` are SSE `minps`/`maxps`, which have exactly this rule;
+    // without SSE, glam's scalar fallback does not, so spell it out there.
+    #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        if cfg!(target_feature = "sse2") {
+            Vec4::min(self, o)
+        } else {
+            Vec4::select(self.cmplt(o), self, o)
+        }
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        if cfg!(target_feature = "sse2") {
+            Vec4::max(self, o)
+        } else {
+            Vec4::select(self.cmpgt(o), self, o)
+        }
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        Vec4::new(self.x.sqrt(), self.y.sqrt(), self.z.sqrt(), self.w.sqrt())
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        Vec4::abs(self)
+    }
+}
+
+/// The mask of `wide::f32x8` (all bits set in a true lane).
+#[derive(Clone, Copy, Debug)]
+pub struct Mask8(pub f32x8);
+
+impl BitAnd for Mask8 {
+    type Output = Self;
+    #[inline(always)]
+    fn bitand(self, o: Self) -> Self {
+        Mask8(self.0 & o.0)
+    }
+}
+
+impl BitOr for Mask8 {
+    type Output = Self;
+    #[inline(always)]
+    fn bitor(self, o: Self) -> Self {
+        Mask8(self.0 | o.0)
+    }
+}
+
+impl Not for Mask8 {
+    type Output = Self;
+    #[inline(always)]
+    fn not(self) -> Self {
+        Mask8(!self.0)
+    }
+}
+
+impl Mask for Mask8 {
+    #[inline(always)]
+    fn bits(self) -> u32 {
+        self.0.move_mask() as u32
+    }
+    #[inline(always)]
+    fn from_bits(bits: u32) -> Self {
+        let on = f32::from_bits(u32::MAX);
+        Mask8(f32x8::new(std::array::from_fn(|i| {
+            if bits >> i & 1 != 0 {
+                on
+            } else {
+                0.0
+            }
+        })))
+    }
+}
+
+impl Lane for f32x8 {
+    type Mask = Mask8;
+    const WIDTH: usize = 8;
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        f32x8::splat(x)
+    }
+    #[inline(always)]
+    fn from_fn(f: impl FnMut(usize) -> f32) -> Self {
+        f32x8::new(std::array::from_fn(f))
+    }
+    #[inline(always)]
+    fn lane(self, i: usize) -> f32 {
+        self.as_array_ref()[i]
+    }
+    #[inline(always)]
+    fn select(m: Mask8, a: Self, b: Self) -> Self {
+        m.0.blend(a, b)
+    }
+    #[inline(always)]
+    fn lt(self, o: Self) -> Mask8 {
+        Mask8(self.cmp_lt(o))
+    }
+    #[inline(always)]
+    fn le(self, o: Self) -> Mask8 {
+        Mask8(self.cmp_le(o))
+    }
+    #[inline(always)]
+    fn gt(self, o: Self) -> Mask8 {
+        Mask8(self.cmp_gt(o))
+    }
+    #[inline(always)]
+    fn ge(self, o: Self) -> Mask8 {
+        Mask8(self.cmp_ge(o))
+    }
+    #[inline(always)]
+    fn eq(self, o: Self) -> Mask8 {
+        Mask8(self.cmp_eq(o))
+    }
+    #[inline(always)]
+    fn ne(self, o: Self) -> Mask8 {
+        Mask8(self.cmp_ne(o))
+    }
+    // `fast_min`/`fast_max` are `vminps`/`vmaxps` (or SSE `minps`/`maxps` per half):
+    // the rule above. (`wide`'s `min`/`max` return the other operand of a NaN instead.)
+    #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        self.fast_min(o)
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        self.fast_max(o)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f32x8::sqrt(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f32x8::abs(self)
+    }
+}
+
+/// Three lanes vectors: x, y and z of `WIDTH` points or directions.
+#[derive(Clone, Copy, Debug)]
+pub struct V3<L> {
+    pub x: L,
+    pub y: L,
+    pub z: L,
+}
+
+impl<L: Lane> V3<L> {
+    #[inline(always)]
+    pub fn new(x: L, y: L, z: L) -> Self {
+        Self { x, y, z }
+    }
+    #[inline(always)]
+    pub fn splat(v: glam::Vec3) -> Self {
+        Self::new(L::splat(v.x), L::splat(v.y), L::splat(v.z))
+    }
+    /// Lane `i` is `f(i)`.
+    #[inline(always)]
+    pub fn from_fn(mut f: impl FnMut(usize) -> glam::Vec3) -> Self {
+        let mut xs = [glam::Vec3::ZERO; 8];
+        for (i, x) in xs.iter_mut().enumerate().take(L::WIDTH) {
+            *x = f(i);
+        }
+        Self::new(
+            L::from_fn(|i| xs[i].x),
+            L::from_fn(|i| xs[i].y),
+            L::from_fn(|i| xs[i].z),
+        )
+    }
+    #[inline(always)]
+    pub fn lane(&self, i: usize) -> glam::Vec3 {
+        glam::Vec3::new(self.x.lane(i), self.y.lane(i), self.z.lane(i))
+    }
+    /// `(x·x + y·y) + z·z`, glam's order.
+    #[inline(always)]
+    pub fn dot(self, o: Self) -> L {
+        self.x * o.x + self.y * o.y + self.z * o.z
+    }
+    /// glam's `Vec3::cross`, term for term.
+    #[inline(always)]
+    pub fn cross(self, o: Self) -> Self {
+        Self::new(
+            self.y * o.z - o.y * self.z,
+            self.z * o.x - o.z * self.x,
+            self.x * o.y - o.x * self.y,
+        )
+    }
+    #[inline(always)]
+    pub fn scale(self, s: L) -> Self {
+        Self::new(self.x * s, self.y * s, self.z * s)
+    }
+    #[inline(always)]
+    pub fn select(m: L::Mask, a: Self, b: Self) -> Self {
+        Self::new(
+            L::select(m, a.x, b.x),
+            L::select(m, a.y, b.y),
+            L::select(m, a.z, b.z),
+        )
+    }
+}
+
+impl<L: Lane> Add for V3<L> {
+    type Output = Self;
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        Self::new(self.x + o.x, self.y + o.y, self.z + o.z)
+    }
+}
+
+impl<L: Lane> Sub for V3<L> {
+    type Output = Self;
+    #[inline(always)]
+    fn sub(self, o: Self) -> Self {
+        Self::new(self.x - o.x, self.y - o.y, self.z - o.z)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check_rules<L: Lane>() {
+        let nan = f32::NAN;
+        let a = L::from_fn(|i| [nan, 1.0, 3.0, -0.0, 2.0, nan, 7.0, 0.0][i]);
+        let b = L::from_fn(|i| [2.0, nan, 1.0, 0.0, 2.0, nan, 8.0, -0.0][i]);
+        let min = a.min(b);
+        let max = a.max(b);
+        for i in 0..L::WIDTH {
+            let (x, y) = (a.lane(i), b.lane(i));
+            let want_min = if x < y { x } else { y };
+            let want_max = if x > y { x } else { y };
+            assert_eq!(min.lane(i).to_bits(), want_min.to_bits(), "min lane {i}");
+            assert_eq!(max.lane(i).to_bits(), want_max.to_bits(), "max lane {i}");
+        }
+        let m = a.lt(b);
+        for i in 0..L::WIDTH {
+            assert_eq!(m.bits() >> i & 1 != 0, a.lane(i) < b.lane(i));
+        }
+        let bits = 0b1010_0110 & ((1u32 << L::WIDTH) - 1);
+        assert_eq!(L::Mask::from_bits(bits).bits(), bits);
+        let s = L::select(L::Mask::from_bits(bits), L::splat(1.0), L::splat(2.0));
+        for i in 0..L::WIDTH {
+            assert_eq!(s.lane(i), if bits >> i & 1 != 0 { 1.0 } else { 2.0 });
+        }
+    }
+
+    #[test]
+    fn every_width_follows_the_same_min_max_and_mask_rules() {
+        check_rules::<f32>();
+        check_rules::<Vec4>();
+        check_rules::<f32x8>();
+    }
+}

@@ -1,0 +1,287 @@
+//! Packets against the scalar path: the same image bits at every packet width and
+//! thread count, and the same per-lane answers (t, primitive id, visibility) for random
+//! packets with random active masks.
+
+mod support;
+
+use glam::{Vec3, Vec4};
+use proptest::prelude::*;
+use raytracer::accel::packet::{RayPacket, MAX_WIDTH};
+use raytracer::accel::{Accel, AccelKind, TraversalStats};
+use raytracer::geometry::{Hit, Ray};
+use raytracer::integrator::T_MIN;
+use raytracer::lanes::Lane;
+use raytracer::render::{render, RenderSettings};
+use raytracer::scene::builtin::SCENES;
+use raytracer::scene::Scene;
+use std::sync::OnceLock;
+use support::{bits, builtin, scene_with_files, Rng};
+use wide::f32x8;
+
+fn render_bits(scene: &Scene, accel: &Accel, width: u32, threads: usize) -> Vec<[u32; 3]> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    let settings = RenderSettings {
+        seed: 7,
+        packet_width: width,
+    };
+    let rendered = pool
+        .install(|| render(scene, accel, &settings, &|| {}))
+        .unwrap();
+    bits(&rendered.film)
+}
+
+/// Every built-in scene, 37 pixels wide (so packets straddle the right edge and the
+/// bottom rows), gives the same linear f32 bits at widths 1, 4 and 8 and on 1 and 2
+/// threads; and with the linear scan under the packets too.
+#[test]
+fn every_scene_same_bits_at_every_width_and_thread_count() {
+    for (name, _) in SCENES {
+        let mut scene = builtin(name, 37, 2);
+        let accel = Accel::build(&mut scene, AccelKind::Bvh);
+        let reference = render_bits(&scene, &accel, 1, 1);
+        for (width, threads) in [(1, 2), (4, 1), (4, 2), (8, 1), (8, 2)] {
+            assert!(
+                render_bits(&scene, &accel, width, threads) == reference,
+                "{name}: width {width}, {threads} threads differs from the scalar image"
+            );
+        }
+        let mut linear_scene = builtin(name, 37, 2);
+        let linear = Accel::build(&mut linear_scene, AccelKind::Linear);
+        assert!(
+            render_bits(&linear_scene, &linear, 8, 2) == reference,
+            "{name}: 8-wide over the linear scan differs"
+        );
+    }
+}
+
+/// A scene with every kind both inside the BVH (more than 16 of a kind) and beside it:
+/// 40 small spheres, 3 big ones, 24 quads (four boxes), the bunny, a point light and a
+/// quad light.
+fn mixed_scene() -> &'static (Scene, Accel) {
+    static SCENE: OnceLock<(Scene, Accel)> = OnceLock::new();
+    SCENE.get_or_init(|| {
+        let mut text = String::from(
+            r#"
+[camera]
+width = 8
+aspect_ratio = "1:1"
+look_from = [0, 0.1, 1]
+look_at = [0, 0.1, 0]
+[materials.m]
+type = "phong"
+albedo = [0.5, 0.5, 0.5]
+shininess = 10
+[materials.lamp]
+type = "light"
+color = [1, 1, 1]
+intensity = 1
+[[objects]]
+type = "mesh"
+path = "bunny.obj"
+material = "m"
+[[objects]]
+type = "sphere"
+center = [0.05, 0.3, 0.1]
+radius = 0.01
+material = "lamp"
+[[objects]]
+type = "quad"
+corner = [-0.2, 0.35, -0.2]
+u = [0.4, 0, 0]
+v = [0, 0, 0.4]
+material = "lamp"
+[[objects]]
+type = "sphere"
+center = [0, -100.0, 0]
+radius = 99.97
+material = "m"
+"#,
+        );
+        let mut rng = Rng(99);
+        for _ in 0..40 {
+            let c = Vec3::new(
+                rng.range(-0.2, 0.2),
+                rng.range(-0.05, 0.3),
+                rng.range(-0.2, 0.2),
+            );
+            text += &format!(
+                "[[objects]]\ntype = \"sphere\"\ncenter = [{}, {}, {}]\nradius = {}\nmaterial = \"m\"\n",
+                c.x,
+                c.y,
+                c.z,
+                rng.range(0.002, 0.03)
+            );
+        }
+        for k in 0..4 {
+            let lo = Vec3::new(-0.25 + 0.12 * k as f32, -0.03, -0.25);
+            text += &format!(
+                "[[objects]]\ntype = \"box\"\ncorners = [[{}, {}, {}], [{}, {}, {}]]\nmaterial = \"m\"\n",
+                lo.x,
+                lo.y,
+                lo.z,
+                lo.x + 0.05,
+                lo.y + 0.04,
+                lo.z + 0.07
+            );
+        }
+        let obj = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/bunny.obj"))
+            .unwrap();
+        let mut scene = scene_with_files(&text, &[("bunny.obj", obj)]);
+        let accel = Accel::build(&mut scene, AccelKind::Bvh);
+        let Accel::Bvh(b) = &accel else { unreachable!() };
+        assert_eq!(b.linear_kinds, [false, false, false], "every kind is in the tree");
+        (scene, accel)
+    })
+}
+
+/// Eight rays of one kind: 0 random, 1 aimed at the scene, 2 axis-parallel with ±0
+/// components, 3 starting exactly on a surface (a hit point, no offset), 4 pointing away
+/// from the scene (miss everything); 5 a coherent bundle (like camera rays).
+fn packet_rays(scene: &Scene, accel: &Accel, kind: u8, seed: u64) -> [Ray; MAX_WIDTH] {
+    let mut rng = Rng(seed);
+    // The small objects' region (the ground sphere's bounds would swallow it).
+    let b = raytracer::geometry::Aabb::new(Vec3::new(-0.3, -0.05, -0.3), Vec3::new(0.3, 0.4, 0.3));
+    let ext = b.max - b.min;
+    let point = |rng: &mut Rng, grow: f32| {
+        b.min - ext * grow + Vec3::new(rng.f32(), rng.f32(), rng.f32()) * ext * (1.0 + 2.0 * grow)
+    };
+    let centre = (b.min + b.max) * 0.5;
+    let base = point(&mut rng, 0.5);
+    let aim = point(&mut rng, 0.0);
+    std::array::from_fn(|_| match kind {
+        0 => Ray::new(point(&mut rng, 0.5), rng.unit_vector()),
+        1 => {
+            let o = point(&mut rng, 1.0);
+            Ray::new(o, (point(&mut rng, 0.0) - o).normalize_or(Vec3::X))
+        }
+        2 => {
+            let axis = (rng.next_u64() % 6) as usize;
+            let mut d = [0.0f32; 3];
+            d[axis % 3] = if axis < 3 { 1.0 } else { -1.0 };
+            for (k, c) in d.iter_mut().enumerate() {
+                if k != axis % 3 && rng.next_u64() % 2 == 0 {
+                    *c = -0.0;
+                }
+            }
+            Ray::new(point(&mut rng, 0.2), Vec3::from(d))
+        }
+        3 => {
+            let o = point(&mut rng, 1.0);
+            let r = Ray::new(o, (centre - o).normalize_or(Vec3::X));
+            let mut s = TraversalStats::default();
+            match accel.closest_hit(scene, &r, T_MIN, f32::INFINITY, &mut s) {
+                Some(h) => Ray::new(r.at(h.t), rng.unit_vector()),
+                None => r,
+            }
+        }
+        4 => {
+            let o = b.max + ext * (0.1 + rng.f32());
+            let d = Vec3::new(rng.f32(), rng.f32(), rng.f32()) + Vec3::splat(0.01);
+            Ray::new(o, d.normalize())
+        }
+        _ => {
+            let jitter = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * ext * 0.05;
+            Ray::new(base, (aim + jitter - base).normalize_or(Vec3::X))
+        }
+    })
+}
+
+fn key(h: &Option<Hit>) -> Option<(u32, u32, u32)> {
+    h.map(|h| (h.t.to_bits(), h.id, h.object))
+}
+
+#[allow(clippy::needless_range_loop)] // lanes index several arrays
+fn check_packet<L: Lane>(rays: &[Ray; MAX_WIDTH], active: u32) -> Result<(), TestCaseError> {
+    let (scene, accel) = mixed_scene();
+    let mut s = TraversalStats::default();
+    let p = RayPacket::<L>::new(rays, active);
+    let hits = accel.closest_hit_packet(scene, &p, T_MIN, &mut s);
+    for (light_index, light) in scene.lights.iter().enumerate() {
+        let visible = accel.light_visible_packet(scene, &p, T_MIN, light, active, &mut s);
+        for k in 0..L::WIDTH {
+            let want =
+                active >> k & 1 != 0 && accel.light_visible(scene, &rays[k], T_MIN, light, &mut s);
+            prop_assert_eq!(
+                visible >> k & 1 != 0,
+                want,
+                "light {} lane {}",
+                light_index,
+                k
+            );
+        }
+    }
+    for k in 0..L::WIDTH {
+        let want = if active >> k & 1 != 0 {
+            accel.closest_hit(scene, &rays[k], T_MIN, f32::INFINITY, &mut s)
+        } else {
+            None
+        };
+        prop_assert_eq!(key(&hits[k]), key(&want), "lane {} of {:?}", k, rays[k]);
+    }
+    // Any-hit with arbitrary bounds: occluded before (t, id) per lane.
+    let Accel::Bvh(bvh) = accel else {
+        unreachable!()
+    };
+    let mut rng = Rng(active as u64);
+    let t_light: [f32; MAX_WIDTH] = std::array::from_fn(|_| rng.range(0.0, 0.6));
+    let id_light: [u32; MAX_WIDTH] = std::array::from_fn(|_| (rng.next_u64() % 5000) as u32);
+    let object = scene.lights[0].object;
+    let occluded = bvh.occluded_packet(
+        scene, &p, T_MIN, &t_light, &id_light, object, active, &mut s,
+    );
+    for k in 0..L::WIDTH {
+        let want = active >> k & 1 != 0
+            && bvh.occluded(
+                scene,
+                &rays[k],
+                T_MIN,
+                t_light[k],
+                id_light[k],
+                object,
+                &mut s,
+            );
+        prop_assert_eq!(occluded >> k & 1 != 0, want, "occluded lane {}", k);
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
+
+    #[test]
+    fn packets_return_the_scalar_answers(kind in 0u8..6, seed: u64, mask in 1u32..256) {
+        let (scene, accel) = mixed_scene();
+        let rays = packet_rays(scene, accel, kind, seed);
+        check_packet::<f32x8>(&rays, mask)?;
+        let mask4 = if mask & 0xf == 0 { mask >> 4 } else { mask & 0xf };
+        check_packet::<Vec4>(&rays, mask4)?;
+    }
+}
+
+/// The random packets do reach the interesting cases: hits of every kind, misses, and
+/// both visible and occluded shadow rays.
+#[test]
+fn packet_rays_cover_hits_of_every_kind() {
+    let (scene, accel) = mixed_scene();
+    let mut s = TraversalStats::default();
+    let mut kinds = std::collections::HashSet::new();
+    let (mut hits, mut misses) = (0, 0);
+    for kind in 0..6 {
+        for seed in 0..50 {
+            for r in packet_rays(scene, accel, kind, seed) {
+                match accel.closest_hit(scene, &r, T_MIN, f32::INFINITY, &mut s) {
+                    Some(h) => {
+                        hits += 1;
+                        kinds.insert(format!("{:?}", h.kind));
+                    }
+                    None => misses += 1,
+                }
+            }
+        }
+    }
+    assert_eq!(kinds.len(), 3, "{kinds:?}");
+    assert!(hits > 500 && misses > 500, "{hits} hits, {misses} misses");
+}
