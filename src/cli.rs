@@ -96,6 +96,8 @@ pub struct Report {
     pub accel: AccelKind,
     pub seconds: Seconds,
     pub rays: Rays,
+    /// Pixels with a NaN or infinite channel (`Film::non_finite_count`).
+    pub non_finite_pixels: usize,
 }
 
 #[derive(Debug, Default, serde::Serialize)]
@@ -232,6 +234,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
                 total: secs(start, Instant::now()),
             },
             rays: counts.into(),
+            non_finite_pixels: rendered.film.non_finite_count(),
         };
         let json = serde_json::to_string_pretty(&report)?;
         output::write_atomically(path, |out| {
@@ -251,6 +254,10 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
             counts.secondary,
             per_ray(t.nodes),
             per_ray(t.prims)
+        );
+        eprintln!(
+            "stats: non-finite pixels: {}",
+            rendered.film.non_finite_count()
         );
     }
     if notes {
