@@ -521,9 +521,9 @@ fn grazing(along: D3, n: D3, theta: f64) -> Vec3 {
 ///   oracle (the plane, in f64) says hit, unambiguously; the BVH hits, t within 1e-5
 ///   relative (measured: well below);
 /// - rays with ±0 components: straight down/up (±0, ±0, ∓1) at vertices, shared edges
-///   and interiors hit at |o_z − 0.5| (exact in f32) within 4 ulps (the kernel's t is
-///   a quotient of rounded edge functions: measured 1 ulp); (±1, ±0, ±0) and (±0, ±1, ±0) above the
-///   plane miss; the same in the plane itself (origin z = 0.5, along shared edges) are
+///   and interiors hit at |o_z − 0.5| (exact in f32) within 4 ε relative (the kernel's t
+///   is a quotient of rounded edge functions: measured 1 ulp); (±1, ±0, ±0) and
+///   (±0, ±1, ±0) above the plane miss; the same in the plane itself (origin z = 0.5, along shared edges) are
 ///   ambiguous and must only not produce a NaN or a hit outside the grid.
 ///
 /// Checked it can fail: with `TrianglePool::intersect4` replaced by Möller–Trumbore, rays
