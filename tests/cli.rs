@@ -949,8 +949,9 @@ fn report_json_has_sizes_timings_and_ray_counts() {
 }
 
 /// `--stats` prints the film's count of NaN or infinite pixels (0 for a built-in scene),
-/// and `--report` carries it as `non_finite_pixels`. Checked it can fail: with the count
-/// forced to 1 in `cli.rs` both assertions fail.
+/// and `--report` carries it as `non_finite_pixels`. Checked it can fail: with
+/// `render_tile` dividing every pixel by 0, the line reads "non-finite pixels: 32" and the
+/// test fails.
 #[test]
 fn stats_and_report_count_non_finite_pixels() {
     let case = Case::spheres(&["--stats", "--report", "report.json"]);
