@@ -106,6 +106,8 @@ pub struct Report {
     pub accel: AccelKind,
     pub seconds: Seconds,
     pub rays: Rays,
+    /// Pixels with a NaN or infinite channel (`Film::non_finite_count`).
+    pub non_finite_pixels: usize,
 }
 
 #[derive(Debug, Default, serde::Serialize)]
@@ -242,6 +244,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
                 total: secs(start, Instant::now()),
             },
             rays: counts.into(),
+            non_finite_pixels: rendered.film.non_finite_count(),
         };
         let json = serde_json::to_string_pretty(&report)?;
         output::write_atomically(path, |out| {
@@ -276,6 +279,10 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
                 pct(nodes),
             );
         }
+        eprintln!(
+            "stats: non-finite pixels: {}",
+            rendered.film.non_finite_count()
+        );
     }
     if notes {
         let bad = rendered.film.non_finite_count();

@@ -945,6 +945,27 @@ fn report_json_has_sizes_timings_and_ray_counts() {
     );
     assert_eq!(total, camera + shadow + secondary);
     assert_eq!(camera, w * h * spp);
+    assert_eq!(uint(&r["non_finite_pixels"]), 0);
+}
+
+/// `--stats` prints the film's count of NaN or infinite pixels (0 for a built-in scene),
+/// and `--report` carries it as `non_finite_pixels`. Checked it can fail: with
+/// `render_tile` dividing every pixel by 0, the line reads "non-finite pixels: 32" and the
+/// test fails.
+#[test]
+fn stats_and_report_count_non_finite_pixels() {
+    let case = Case::spheres(&["--stats", "--report", "report.json"]);
+    let (dir, run) = case.run();
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    let line = run
+        .stderr
+        .lines()
+        .find(|l| l.starts_with("stats: non-finite pixels:"))
+        .unwrap_or_else(|| panic!("no non-finite line in: {}", run.stderr));
+    assert_eq!(line, "stats: non-finite pixels: 0");
+    let text = std::fs::read_to_string(dir.path().join("report.json")).unwrap();
+    let r: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(r["non_finite_pixels"].as_u64(), Some(0), "{text}");
 }
 
 #[cfg(unix)]

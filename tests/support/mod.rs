@@ -104,3 +104,77 @@ impl Rng {
         glam::Vec3::new(r * phi.cos(), r * phi.sin(), z)
     }
 }
+
+/// The compiled scene moved by x → `scale` · x + `offset` (scale > 0): sphere centres and
+/// radii, quads (rebuilt from the moved corner and scaled edges, as `compile` builds them),
+/// triangle vertices, the lights' copies of their primitives (moved by the same f32
+/// operations, so they keep matching the pools bit for bit) and the camera (origin and
+/// viewport corner moved, pixel steps scaled: ray directions stay the same up to the
+/// rounding of the moved points). Materials, colours and light intensities are unchanged
+/// (lights have no fall-off). Call before `Accel::build`.
+pub fn transform_scene(scene: &Scene, scale: f32, offset: glam::Vec3) -> Scene {
+    use raytracer::geometry::quad::Quad;
+    use raytracer::geometry::{Aabb, QuadPool, TrianglePool};
+    use raytracer::scene::LightShape;
+    let p = |v: glam::Vec3| v * scale + offset;
+    let quad = |q: &Quad| Quad::new(p(q.corner), q.u * scale, q.v * scale).unwrap();
+    let mut s = scene.clone();
+    for i in 0..s.spheres.len() {
+        let c = p(s.spheres.center(i));
+        (s.spheres.cx[i], s.spheres.cy[i], s.spheres.cz[i]) = (c.x, c.y, c.z);
+        s.spheres.radius[i] *= scale;
+    }
+    let quads = std::mem::take(&mut s.quads);
+    s.quads = QuadPool::default();
+    for i in 0..quads.len() {
+        s.quads
+            .push(&quad(&quads.get(i)), quads.id[i], quads.object[i]);
+    }
+    let tris = std::mem::take(&mut s.triangles);
+    s.triangles = TrianglePool::default();
+    for i in 0..tris.len() {
+        s.triangles
+            .push(tris.vertices(i).map(p), tris.id[i], tris.object[i]);
+    }
+    for light in &mut s.lights {
+        match &mut light.shape {
+            LightShape::Point { center, radius } => {
+                *center = p(*center);
+                *radius *= scale;
+            }
+            LightShape::Quads(qs) => qs.iter_mut().for_each(|q| *q = quad(q)),
+            LightShape::Triangles(ts) => ts.iter_mut().for_each(|t| *t = t.map(p)),
+        }
+    }
+    let cam = &mut s.camera;
+    cam.origin = p(cam.origin);
+    cam.corner = p(cam.corner);
+    cam.pixel_du *= scale;
+    cam.pixel_dv *= scale;
+    s.bounds = Aabb::new(p(s.bounds.min), p(s.bounds.max));
+    s
+}
+
+/// Mean absolute difference per channel of two films of the same size, each channel
+/// clamped to [0, 1] first (what the written image shows).
+pub fn mean_abs_diff(a: &Film, b: &Film) -> f64 {
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    let sum: f64 = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .map(|(p, q)| {
+            let (p, q) = (
+                p.clamp(glam::Vec3::ZERO, glam::Vec3::ONE),
+                q.clamp(glam::Vec3::ZERO, glam::Vec3::ONE),
+            );
+            (p - q)
+                .abs()
+                .to_array()
+                .iter()
+                .map(|&x| x as f64)
+                .sum::<f64>()
+        })
+        .sum();
+    sum / (3 * a.pixels.len()) as f64
+}
