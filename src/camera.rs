@@ -5,6 +5,7 @@
 //! and stored as f32 for the tracers.
 
 use crate::geometry::Ray;
+use crate::lanes::{Lane, V3};
 use glam::{DVec3, Vec3};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -51,6 +52,19 @@ impl Camera {
     pub fn ray(&self, x: u32, y: u32, jx: f32, jy: f32) -> Ray {
         let p = self.corner + self.pixel_du * (x as f32 + jx) + self.pixel_dv * (y as f32 + jy);
         Ray::new(self.origin, (p - self.origin).normalize())
+    }
+}
+
+impl Camera {
+    /// `ray` for lanes of pixels: the unit directions (the origin is `self.origin`), the
+    /// same operations lane by lane (glam's `normalize` is `v · (1 / √(v·v))`).
+    #[inline]
+    pub fn directions<L: Lane>(&self, x: L, y: L, jx: L, jy: L) -> V3<L> {
+        let (sx, sy) = (x + jx, y + jy);
+        let p = V3::splat(self.corner) + V3::splat(self.pixel_du).scale(sx);
+        let p = p + V3::splat(self.pixel_dv).scale(sy);
+        let v = p - V3::splat(self.origin);
+        v.scale(L::splat(1.0) / v.dot(v).sqrt())
     }
 }
 

@@ -44,6 +44,49 @@ impl SampleKey {
     }
 }
 
+/// `SampleKey::new` for lanes of pixels (one sample index): lane i is
+/// `SampleKey::new(seed, x[i], y[i], sample)`. Plain element-wise loops over arrays,
+/// which the compiler turns into SIMD multiplies, shifts and xors: the same bits.
+#[inline]
+pub fn keys_lanes<const N: usize>(seed: u32, x: [u32; N], y: [u32; N], sample: u32) -> [u32; N] {
+    let h0 = hash_u32(seed);
+    let h = hash_lanes(x.map(|x| h0.wrapping_add(x)));
+    let mut h2 = [0; N];
+    for i in 0..N {
+        h2[i] = h[i].wrapping_add(y[i]);
+    }
+    let h = hash_lanes(h2);
+    hash_lanes(h.map(|h| h.wrapping_add(sample)))
+}
+
+/// `SampleKey::uniform` for lanes of keys.
+#[inline]
+pub fn uniform_lanes<const N: usize>(keys: [u32; N], vertex: u32, slot: u32) -> [f32; N] {
+    let dim = hash_u32(hash_u32(vertex).wrapping_add(slot));
+    hash_lanes(keys.map(|k| k ^ dim)).map(to_unit)
+}
+
+/// `hash_u32` on every element.
+#[inline(always)]
+pub fn hash_lanes<const N: usize>(mut x: [u32; N]) -> [u32; N] {
+    for v in &mut x {
+        *v ^= *v >> 16;
+    }
+    for v in &mut x {
+        *v = v.wrapping_mul(0x7feb_352d);
+    }
+    for v in &mut x {
+        *v ^= *v >> 15;
+    }
+    for v in &mut x {
+        *v = v.wrapping_mul(0x846c_a68b);
+    }
+    for v in &mut x {
+        *v ^= *v >> 16;
+    }
+    x
+}
+
 /// The fixed table of slots: which number is used for what at a path vertex.
 pub mod slot {
     /// Pixel jitter (vertex 0 only).
@@ -80,6 +123,19 @@ mod tests {
         assert_ne!(k, SampleKey::new(7, 4, 3, 5));
         assert_eq!(k.uniform(1, 2), k.uniform(1, 2));
         assert_ne!(k.uniform(1, 2), k.uniform(2, 1));
+    }
+
+    #[test]
+    fn lanes_give_the_scalar_keys_and_numbers() {
+        let xs: [u32; 8] = std::array::from_fn(|i| 100 + i as u32 % 4);
+        let ys: [u32; 8] = std::array::from_fn(|i| 7 + i as u32 / 4);
+        let keys = keys_lanes(9, xs, ys, 3);
+        let us = uniform_lanes(keys, 2, slot::JITTER_Y);
+        for i in 0..8 {
+            let k = SampleKey::new(9, xs[i], ys[i], 3);
+            assert_eq!(keys[i], k.0);
+            assert_eq!(us[i].to_bits(), k.uniform(2, slot::JITTER_Y).to_bits());
+        }
     }
 
     #[test]

@@ -55,27 +55,36 @@ impl<L: Lane> RayPacket<L> {
     /// A packet of `rays[i]` for the lanes `i` set in `active` (`active` must not be
     /// empty).
     pub fn new(rays: &[Ray; MAX_WIDTH], active: u32) -> Self {
-        let w = L::WIDTH;
-        debug_assert!(active != 0 && active < (1 << w));
+        debug_assert!(active != 0 && active < (1 << L::WIDTH));
         let first = active.trailing_zeros() as usize;
-        let mut all = *rays;
-        if active != (1 << w) - 1 {
-            for (i, r) in all.iter_mut().enumerate().take(w) {
-                if active >> i & 1 == 0 {
-                    *r = rays[first];
-                }
+        let lane = |i: usize| {
+            if active >> i & 1 != 0 {
+                &rays[i]
+            } else {
+                &rays[first]
             }
-        }
+        };
         let origin = V3::new(
-            L::from_fn(|i| all[i].origin.x),
-            L::from_fn(|i| all[i].origin.y),
-            L::from_fn(|i| all[i].origin.z),
+            L::from_fn(|i| lane(i).origin.x),
+            L::from_fn(|i| lane(i).origin.y),
+            L::from_fn(|i| lane(i).origin.z),
         );
         let dir = V3::new(
-            L::from_fn(|i| all[i].dir.x),
-            L::from_fn(|i| all[i].dir.y),
-            L::from_fn(|i| all[i].dir.z),
+            L::from_fn(|i| lane(i).dir.x),
+            L::from_fn(|i| lane(i).dir.y),
+            L::from_fn(|i| lane(i).dir.z),
         );
+        Self::from_lanes(origin, dir, active)
+    }
+
+    /// A packet from rays already in lanes; every lane, active or not, must hold a
+    /// finite ray (inactive lanes are tested but never reported).
+    pub fn from_lanes(origin: V3<L>, dir: V3<L>, active: u32) -> Self {
+        let w = L::WIDTH;
+        let all: [Ray; MAX_WIDTH] = std::array::from_fn(|i| {
+            let i = i.min(w - 1);
+            Ray::new(origin.lane(i), dir.lane(i))
+        });
         let zero = L::splat(0.0);
         let lanes = (1u32 << w) - 1;
         let uniform = |bits: u32| match bits {

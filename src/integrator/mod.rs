@@ -215,16 +215,18 @@ impl<'a> Tracer<'a> {
         vertex: u32,
         counts: &mut RayCounts,
     ) -> Vec3 {
-        self.phong_with(m, ray, s, key, vertex, |li, _, l| {
+        self.phong_with(m, ray, s, |li, k| {
+            let l = self.light_direction(s, key, vertex, li, k)?;
             counts.shadow += 1;
             let shadow_ray = spawn_ray(&s.point, s.normal, l);
-            self.accel.light_visible(
+            let visible = self.accel.light_visible(
                 self.scene,
                 &shadow_ray,
                 T_MIN,
                 &self.scene.lights[li],
                 &mut counts.traversal,
-            )
+            );
+            Some((l, visible))
         })
     }
 
@@ -266,17 +268,16 @@ impl<'a> Tracer<'a> {
         Some((l, spawn_ray(&s.point, s.normal, l)))
     }
 
-    /// Phong shading with the visibility of each shadow ray `(light, sample, direction)`
-    /// given by `visible`: the scalar tracer traces it there, the packet tracer looks up
-    /// what a shadow packet found.
+    /// Phong shading with the light samples given by `sample(light, k)`: the unit
+    /// direction to the sample and whether the shadow ray reaches it, or `None` when the
+    /// sample is the point itself. The scalar tracer traces the shadow ray there, the
+    /// packet tracer looks up what a shadow packet found.
     pub fn phong_with(
         &self,
         m: &Phong,
         ray: &Ray,
         s: &Surface,
-        key: SampleKey,
-        vertex: u32,
-        mut visible: impl FnMut(usize, u32, Vec3) -> bool,
+        mut sample: impl FnMut(usize, u32) -> Option<(Vec3, bool)>,
     ) -> Vec3 {
         let view = -ray.dir;
         let mut diffuse = Vec3::ZERO;
@@ -286,10 +287,10 @@ impl<'a> Tracer<'a> {
             let mut light_diffuse = Vec3::ZERO;
             let mut light_specular = Vec3::ZERO;
             for k in 0..n {
-                let Some(l) = self.light_direction(s, key, vertex, li, k) else {
+                let Some((l, visible)) = sample(li, k) else {
                     continue;
                 };
-                if !visible(li, k, l) {
+                if !visible {
                     continue;
                 }
                 let n_dot_l = s.normal.dot(l);

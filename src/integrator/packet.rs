@@ -14,8 +14,9 @@ use crate::accel::packet::{RayPacket, MAX_WIDTH};
 use crate::geometry::spawn::spawn_ray;
 use crate::geometry::Ray;
 use crate::lanes::Lane;
+use crate::lanes::V3;
 use crate::material::{reflect, schlick, Material};
-use crate::rng::{slot, SampleKey, MAX_LIGHT_SAMPLES};
+use crate::rng::{keys_lanes, slot, uniform_lanes, SampleKey, MAX_LIGHT_SAMPLES};
 use glam::Vec3;
 
 /// The pixels a packet of `width` lanes covers: 4x2 for 8 lanes, 2x2 for 4, 1x1 for 1.
@@ -58,19 +59,31 @@ impl Tracer<'_> {
         counts: &mut RayCounts,
     ) -> [Vec3; MAX_WIDTH] {
         let (fw, _) = footprint(L::WIDTH);
-        let mut keys = [SampleKey(0); MAX_WIDTH];
-        let mut rays = [NO_RAY; MAX_WIDTH];
-        for k in lanes(active) {
-            let (x, y) = (x0 + k as u32 % fw, y0 + k as u32 / fw);
-            let key = SampleKey::new(self.seed, x, y, sample);
-            let jx = key.uniform(0, slot::JITTER_X);
-            let jy = key.uniform(0, slot::JITTER_Y);
-            keys[k] = key;
-            rays[k] = self.scene.camera.ray(x, y, jx, jy);
-        }
+        let xs: [u32; MAX_WIDTH] = std::array::from_fn(|k| x0 + k as u32 % fw);
+        let ys: [u32; MAX_WIDTH] = std::array::from_fn(|k| y0 + k as u32 / fw);
+        let keys = keys_lanes(self.seed, xs, ys, sample);
+        let jx = uniform_lanes(keys, 0, slot::JITTER_X);
+        let jy = uniform_lanes(keys, 0, slot::JITTER_Y);
+        let lane = |v: &[f32; MAX_WIDTH]| L::from_fn(|k| v[k]);
+        let dir = self.scene.camera.directions(
+            lane(&xs.map(|x| x as f32)),
+            lane(&ys.map(|y| y as f32)),
+            lane(&jx),
+            lane(&jy),
+        );
+        let origin = V3::splat(self.scene.camera.origin);
+        let packet = RayPacket::from_lanes(origin, dir, active);
         counts.camera += active.count_ones() as u64;
         counts.camera_packets.record(active);
-        self.shade_packet::<L>(&rays, active, &keys, 0, self.scene.max_depth, true, counts)
+        self.shade_packet::<L>(
+            packet,
+            active,
+            &keys.map(SampleKey),
+            0,
+            self.scene.max_depth,
+            true,
+            counts,
+        )
     }
 
     /// The colours the lanes' rays see at path vertex `vertex`. With `camera`, the
@@ -80,7 +93,7 @@ impl Tracer<'_> {
     #[allow(clippy::too_many_arguments)]
     fn shade_packet<L: Lane>(
         &self,
-        rays: &[Ray; MAX_WIDTH],
+        packet: RayPacket<L>,
         active: u32,
         keys: &[SampleKey; MAX_WIDTH],
         vertex: u32,
@@ -96,7 +109,7 @@ impl Tracer<'_> {
         // `trace` multiplies what it returns by the path throughput, which is one at the
         // camera vertex: keep the multiplication so the bits are the scalar ones.
         let weight = |c: Vec3| if camera { Vec3::ONE * c } else { c };
-        let packet = RayPacket::<L>::new(rays, active);
+        let rays = &packet.rays;
         let hits = self
             .accel
             .closest_hit_packet(scene, &packet, T_MIN, &mut counts.traversal);
@@ -148,35 +161,44 @@ impl Tracer<'_> {
         }
 
         // Shadow rays: one packet per light sample, over the lanes that shade with Phong.
+        // Per sample: the lanes that have a direction, its lanes' directions and the
+        // lanes that see the light.
         let n = scene.lights.len() * MAX_LIGHT_SAMPLES as usize;
-        let mut on_stack = [0u32; 64];
+        let mut on_stack = [(0u32, [Vec3::ZERO; MAX_WIDTH], 0u32); 16];
         let mut on_heap = Vec::new();
-        let visible: &mut [u32] = if n <= on_stack.len() {
+        let samples: &mut [(u32, [Vec3; MAX_WIDTH], u32)] = if n <= on_stack.len() {
             &mut on_stack[..n]
         } else {
-            on_heap.resize(n, 0);
+            on_heap.resize(n, (0, [Vec3::ZERO; MAX_WIDTH], 0));
             &mut on_heap
         };
         for (li, light) in scene.lights.iter().enumerate() {
             for j in 0..light.samples() {
+                let (valid, dirs, visible) =
+                    &mut samples[li * MAX_LIGHT_SAMPLES as usize + j as usize];
                 let mut shadow = [NO_RAY; MAX_WIDTH];
-                let mut m = 0u32;
                 for k in lanes(phong_lanes) {
                     let s = surfaces[k].as_ref().expect("a Phong lane has a surface");
-                    if let Some((_, r)) = self.shadow_ray(s, keys[k], vertex, li, j) {
-                        shadow[k] = r;
-                        m |= 1 << k;
+                    if let Some(l) = self.light_direction(s, keys[k], vertex, li, j) {
+                        dirs[k] = l;
+                        shadow[k] = spawn_ray(&s.point, s.normal, l);
+                        *valid |= 1 << k;
                     }
                 }
-                if m == 0 {
+                if *valid == 0 {
                     continue;
                 }
-                counts.shadow += m.count_ones() as u64;
-                counts.shadow_packets.record(m);
-                let p = RayPacket::<L>::new(&shadow, m);
-                visible[li * MAX_LIGHT_SAMPLES as usize + j as usize] = self
-                    .accel
-                    .light_visible_packet(scene, &p, T_MIN, light, m, &mut counts.traversal);
+                counts.shadow += valid.count_ones() as u64;
+                counts.shadow_packets.record(*valid);
+                let p = RayPacket::<L>::new(&shadow, *valid);
+                *visible = self.accel.light_visible_packet(
+                    scene,
+                    &p,
+                    T_MIN,
+                    light,
+                    *valid,
+                    &mut counts.traversal,
+                );
             }
         }
         let mut local = [Vec3::ZERO; MAX_WIDTH];
@@ -187,8 +209,9 @@ impl Tracer<'_> {
                 Material::Phong(p) | Material::PhongMirror { phong: p, .. } => p,
                 _ => unreachable!("only Phong lanes are shaded here"),
             };
-            local[k] = self.phong_with(phong, &rays[k], s, keys[k], vertex, |li, j, _| {
-                visible[li * MAX_LIGHT_SAMPLES as usize + j as usize] >> k & 1 != 0
+            local[k] = self.phong_with(phong, &rays[k], s, |li, j| {
+                let (valid, dirs, visible) = &samples[li * MAX_LIGHT_SAMPLES as usize + j as usize];
+                (valid >> k & 1 != 0).then(|| (dirs[k], visible >> k & 1 != 0))
             });
             if mirror_lanes >> k & 1 == 0 {
                 out[k] = weight(local[k]);
@@ -208,7 +231,7 @@ impl Tracer<'_> {
         counts.secondary += mirror_lanes.count_ones() as u64;
         counts.mirror_packets.record(mirror_lanes);
         let reflected = self.shade_packet::<L>(
-            &reflected_rays,
+            RayPacket::new(&reflected_rays, mirror_lanes),
             mirror_lanes,
             keys,
             vertex + 1,
