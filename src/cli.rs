@@ -63,6 +63,12 @@ pub struct Args {
     #[arg(long, default_value_t = 1, value_parser = parse_packet_width)]
     pub packet_width: u32,
 
+    /// Trace everything, even what cannot change the image (shadow rays of light
+    /// samples that add nothing, packets outside the scene): to measure what the
+    /// specialisation saves. The image is the same.
+    #[arg(long)]
+    pub no_specialize: bool,
+
     /// Acceleration structure.
     #[arg(long, value_enum, default_value_t = AccelKind::Bvh)]
     pub accel: AccelKind,
@@ -104,6 +110,7 @@ pub struct Report {
     pub packet_width: u32,
     pub threads: usize,
     pub accel: AccelKind,
+    pub specialize: bool,
     pub seconds: Seconds,
     pub rays: Rays,
     /// Pixels with a NaN or infinite channel (`Film::non_finite_count`).
@@ -125,6 +132,10 @@ pub struct Rays {
     pub shadow: u64,
     pub secondary: u64,
     pub total: u64,
+    /// Skipped by specialisation: shadow rays whose sample adds nothing lit or not,
+    /// and packets answered by the scene-bounds test.
+    pub shadow_culled: u64,
+    pub packets_outside: u64,
 }
 
 impl From<RayCounts> for Rays {
@@ -134,6 +145,8 @@ impl From<RayCounts> for Rays {
             shadow: c.shadow,
             secondary: c.secondary,
             total: c.total(),
+            shadow_culled: c.shadow_culled,
+            packets_outside: c.packets_outside,
         }
     }
 }
@@ -209,6 +222,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     let settings = RenderSettings {
         seed: args.seed,
         packet_width: args.packet_width,
+        specialize: !args.no_specialize,
     };
     let on_tile = || {
         if let Some(b) = &bar {
@@ -236,6 +250,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
             packet_width: args.packet_width,
             threads,
             accel: accel.kind(),
+            specialize: !args.no_specialize,
             seconds: Seconds {
                 load: secs(start, loaded),
                 build: secs(loaded, built),
@@ -265,6 +280,24 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
             per_ray(t.nodes),
             per_ray(t.prims)
         );
+        let f = scene.features;
+        let yes_no = |b: bool| if b { "yes" } else { "no" };
+        eprintln!(
+            "stats: scene needs: path-traced bounces {}, mirror rays {}, shadow rays {} ({} point, {} area lights)",
+            yes_no(f.has_path_traced),
+            yes_no(f.has_mirror),
+            yes_no(f.has_lights()),
+            scene.lights.iter().filter(|l| l.is_point()).count(),
+            scene.lights.iter().filter(|l| !l.is_point()).count(),
+        );
+        if args.no_specialize {
+            eprintln!("stats: specialisation off (--no-specialize)");
+        } else {
+            eprintln!(
+                "stats: skipped: {} shadow rays (their light sample adds nothing, lit or not), {} packets outside the scene bounds",
+                counts.shadow_culled, counts.packets_outside
+            );
+        }
         let w = args.packet_width;
         if w > 1 {
             let pct = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{:.1}%", x * 100.0));

@@ -7,7 +7,7 @@
 use glam::Vec3;
 
 /// Phong coefficients. The seed's defaults are ka = kd = ks = 0.5.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Phong {
     pub albedo: Vec3,
     pub shininess: f32,

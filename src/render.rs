@@ -58,6 +58,8 @@ pub struct RenderSettings {
     pub seed: u32,
     /// Rays per packet: 1 (the scalar tracer), 4 or 8. The image is the same bits.
     pub packet_width: u32,
+    /// Skip what the scene does not need (`Tracer::specialize`); the same bits.
+    pub specialize: bool,
 }
 
 impl RenderSettings {
@@ -65,6 +67,7 @@ impl RenderSettings {
         Self {
             seed,
             packet_width: 1,
+            specialize: true,
         }
     }
 }
@@ -85,7 +88,8 @@ pub fn render(
 ) -> Result<Rendered> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     let mut film = Film::new(w, h)?;
-    let tracer = Tracer::new(scene, accel, settings.seed);
+    let mut tracer = Tracer::new(scene, accel, settings.seed);
+    tracer.specialize = settings.specialize;
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);
     let tiles: Vec<(u32, u32)> = (0..tiles_y)

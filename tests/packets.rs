@@ -9,6 +9,7 @@ use proptest::prelude::*;
 use raytracer::accel::packet::{RayPacket, MAX_WIDTH};
 use raytracer::accel::{Accel, AccelKind, TraversalStats};
 use raytracer::geometry::{Hit, Ray};
+use raytracer::integrator::RayCounts;
 use raytracer::integrator::T_MIN;
 use raytracer::lanes::Lane;
 use raytracer::render::{render, RenderSettings};
@@ -18,7 +19,13 @@ use std::sync::OnceLock;
 use support::{bits, builtin, scene_with_files, Rng};
 use wide::f32x8;
 
-fn render_bits(scene: &Scene, accel: &Accel, width: u32, threads: usize) -> Vec<[u32; 3]> {
+fn render_counts(
+    scene: &Scene,
+    accel: &Accel,
+    width: u32,
+    threads: usize,
+    specialize: bool,
+) -> (Vec<[u32; 3]>, RayCounts) {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -26,11 +33,43 @@ fn render_bits(scene: &Scene, accel: &Accel, width: u32, threads: usize) -> Vec<
     let settings = RenderSettings {
         seed: 7,
         packet_width: width,
+        specialize,
     };
     let rendered = pool
         .install(|| render(scene, accel, &settings, &|| {}))
         .unwrap();
-    bits(&rendered.film)
+    (bits(&rendered.film), rendered.counts)
+}
+
+fn render_bits(scene: &Scene, accel: &Accel, width: u32, threads: usize) -> Vec<[u32; 3]> {
+    render_counts(scene, accel, width, threads, true).0
+}
+
+/// Specialisation skips work, never changes a bit: every built-in scene with and
+/// without it, scalar and 8-wide. And it does skip: shadow rays in every scene with
+/// Phong and lights, packets that miss everything where the background shows.
+#[test]
+fn specialisation_skips_work_and_keeps_the_bits() {
+    for (name, _) in SCENES {
+        let mut scene = builtin(name, 37, 2);
+        let accel = Accel::build(&mut scene, AccelKind::Bvh);
+        let (reference, general) = render_counts(&scene, &accel, 1, 2, false);
+        assert_eq!(general.shadow_culled + general.packets_outside, 0);
+        let (scalar, c1) = render_counts(&scene, &accel, 1, 2, true);
+        let (packets, c8) = render_counts(&scene, &accel, 8, 2, true);
+        let (packets_general, _) = render_counts(&scene, &accel, 8, 2, false);
+        assert!(scalar == reference, "{name}: scalar, specialised");
+        assert!(packets == reference, "{name}: 8-wide, specialised");
+        assert!(packets_general == reference, "{name}: 8-wide, general");
+        // Culled shadow rays are not traced: the same total either way.
+        assert_eq!(c1.shadow + c1.shadow_culled, general.shadow, "{name}");
+        assert_eq!(c8.shadow + c8.shadow_culled, general.shadow, "{name}");
+        assert_eq!(c1.shadow_culled, c8.shadow_culled, "{name}");
+        assert!(c8.shadow_culled > 0, "{name}: no shadow ray was culled");
+        if name.starts_with("cornell") || *name == "quads" {
+            assert!(c8.packets_outside > 0, "{name}: no packet left at once");
+        }
+    }
 }
 
 /// Every built-in scene, 37 pixels wide (so packets straddle the right edge and the

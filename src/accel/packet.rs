@@ -14,7 +14,7 @@ use super::TraversalStats;
 use crate::geometry::quad::quad_distance;
 use crate::geometry::sphere::sphere_distance;
 use crate::geometry::triangle::{edge_functions, shear, watertight_distance, WatertightRay};
-use crate::geometry::{keep_closest, Hit, PrimKind, Ray};
+use crate::geometry::{keep_closest, Aabb, Hit, PrimKind, Ray};
 use crate::lanes::{Lane, Mask, V3};
 use crate::scene::Scene;
 use std::mem::MaybeUninit;
@@ -188,6 +188,19 @@ impl<L: Lane> RayPacket<L> {
     #[inline]
     fn scalar(&self, k: usize) -> (PrimRay, BoxRay) {
         (PrimRay::new(&self.rays[k]), BoxRay::new(&self.rays[k]))
+    }
+
+    /// The lanes whose ray meets `b` in `[t_min, t_max]` (the traversal's conservative
+    /// box test).
+    #[inline]
+    pub fn hits_box(&self, b: &Aabb, t_min: f32, t_max: f32) -> u32 {
+        let (_, bits) = self.test_box(
+            b.min.to_array(),
+            b.max.to_array(),
+            L::splat(t_min),
+            L::splat(t_max),
+        );
+        bits
     }
 
     /// Subtrees entered by at most this many lanes are finished one ray at a time.

@@ -10,9 +10,11 @@ mod packet;
 
 pub use packet::footprint;
 
+use crate::accel::packet::MAX_WIDTH;
 use crate::accel::{Accel, TraversalStats};
 use crate::geometry::spawn::{planar_point, spawn_ray, sphere_point, ErrorPoint};
 use crate::geometry::{Hit, PrimKind, Ray};
+use crate::lanes::{Lane, Mask, V3};
 use crate::material::{random_unit_vector, reflect, refract, schlick, Material, Phong};
 use crate::rng::{slot, SampleKey};
 use crate::scene::{LightShape, Scene};
@@ -32,6 +34,10 @@ pub struct RayCounts {
     /// Mirror reflections and path-traced bounces.
     pub secondary: u64,
     pub traversal: TraversalStats,
+    /// Work skipped by specialisation: shadow rays not traced because their light sample
+    /// adds nothing whether lit or not, and packets answered by the scene-bounds test.
+    pub shadow_culled: u64,
+    pub packets_outside: u64,
     /// Packets traced, by kind, and their active lanes (zero on the scalar path).
     pub camera_packets: LaneUse,
     pub shadow_packets: LaneUse,
@@ -72,6 +78,8 @@ impl RayCounts {
         self.camera += o.camera;
         self.shadow += o.shadow;
         self.secondary += o.secondary;
+        self.shadow_culled += o.shadow_culled;
+        self.packets_outside += o.packets_outside;
         self.traversal.add(&o.traversal);
         self.camera_packets.add(&o.camera_packets);
         self.shadow_packets.add(&o.shadow_packets);
@@ -96,11 +104,20 @@ pub struct Tracer<'a> {
     pub scene: &'a Scene,
     pub accel: &'a Accel,
     pub seed: u32,
+    /// Skip work that cannot change the image (`design.md` §6; `--no-specialize` turns
+    /// it off): shadow rays of light samples that add nothing lit or not, and packets
+    /// that miss the scene's bounds. The image is the same bits either way.
+    pub specialize: bool,
 }
 
 impl<'a> Tracer<'a> {
     pub fn new(scene: &'a Scene, accel: &'a Accel, seed: u32) -> Self {
-        Self { scene, accel, seed }
+        Self {
+            scene,
+            accel,
+            seed,
+            specialize: true,
+        }
     }
 
     /// The colour of camera sample `sample` of pixel (x, y).
@@ -215,8 +232,13 @@ impl<'a> Tracer<'a> {
         vertex: u32,
         counts: &mut RayCounts,
     ) -> Vec3 {
+        let view = -ray.dir;
         self.phong_with(m, ray, s, |li, k| {
             let l = self.light_direction(s, key, vertex, li, k)?;
+            if self.specialize && adds_nothing(s.normal, l, view, m.shininess) {
+                counts.shadow_culled += 1;
+                return Some((l, false));
+            }
             counts.shadow += 1;
             let shadow_ray = spawn_ray(&s.point, s.normal, l);
             let visible = self.accel.light_visible(
@@ -270,8 +292,7 @@ impl<'a> Tracer<'a> {
 
     /// Phong shading with the light samples given by `sample(light, k)`: the unit
     /// direction to the sample and whether the shadow ray reaches it, or `None` when the
-    /// sample is the point itself. The scalar tracer traces the shadow ray there, the
-    /// packet tracer looks up what a shadow packet found.
+    /// sample is the point itself. The scalar tracer traces the shadow ray there.
     pub fn phong_with(
         &self,
         m: &Phong,
@@ -279,30 +300,17 @@ impl<'a> Tracer<'a> {
         s: &Surface,
         mut sample: impl FnMut(usize, u32) -> Option<(Vec3, bool)>,
     ) -> Vec3 {
-        let view = -ray.dir;
-        let mut diffuse = Vec3::ZERO;
-        let mut specular = Vec3::ZERO;
-        for (li, light) in self.scene.lights.iter().enumerate() {
-            let n = light.samples();
-            let mut light_diffuse = Vec3::ZERO;
-            let mut light_specular = Vec3::ZERO;
-            for k in 0..n {
-                let Some((l, visible)) = sample(li, k) else {
-                    continue;
-                };
-                if !visible {
-                    continue;
-                }
-                let n_dot_l = s.normal.dot(l);
-                light_diffuse += light.radiance * n_dot_l.max(0.0);
-                // The seed's specular term is not gated by N·L > 0.
-                let r = (s.normal * (2.0 * n_dot_l) - l).normalize_or_zero();
-                light_specular += light.radiance * r.dot(view).max(0.0).powf(m.shininess);
-            }
-            diffuse += light_diffuse / n as f32;
-            specular += light_specular / n as f32;
-        }
-        m.albedo * (self.scene.ambient * m.ka + diffuse * m.kd + specular * m.ks)
+        let c = phong_lanes::<f32>(
+            &PhongLanes::from_fn(|_| m),
+            self.scene,
+            V3::splat(s.normal),
+            V3::splat(-ray.dir),
+            |li, k| match sample(li, k) {
+                Some((l, visible)) => (visible as u32, V3::splat(l)),
+                None => (0, V3::splat(Vec3::ZERO)),
+            },
+        );
+        c.lane(0)
     }
 
     /// Phong mixed with one mirror reflection: (1 − F)·Phong + F·reflected, F by Schlick.
@@ -355,6 +363,109 @@ impl<'a> Tracer<'a> {
             Material::Dielectric { .. } => Vec3::ONE,
         }
     }
+}
+
+/// Does a light sample add exactly zero to Phong whether it is lit or not? True when
+/// N·L ≤ 0 (no diffuse term) and the specular term, computed as `phong_lanes` computes it,
+/// is zero. (The seed's specular term is not gated by N·L, so N·L ≤ 0 alone is not
+/// enough: a grazing light behind the surface can still add a highlight.) The terms
+/// are added to sums that start at +0 and never go negative, so adding +0 or skipping
+/// gives the same bits.
+#[inline]
+pub fn adds_nothing(normal: Vec3, l: Vec3, view: Vec3, shininess: f32) -> bool {
+    let n_dot_l = normal.dot(l);
+    if n_dot_l > 0.0 {
+        return false;
+    }
+    let r = (normal * (2.0 * n_dot_l) - l).normalize_or_zero();
+    r.dot(view).max(0.0).powf(shininess) == 0.0
+}
+
+/// The Phong parameters of each lane.
+pub struct PhongLanes<L> {
+    pub albedo: V3<L>,
+    pub ka: L,
+    pub kd: L,
+    pub ks: L,
+    pub shininess: [f32; MAX_WIDTH],
+}
+
+impl<L: Lane> PhongLanes<L> {
+    /// Lane i shades with `material(i)`.
+    #[inline]
+    pub fn from_fn<'m>(mut material: impl FnMut(usize) -> &'m Phong) -> Self {
+        let mut ms = [Phong::default(); MAX_WIDTH];
+        for (i, m) in ms.iter_mut().enumerate().take(L::WIDTH) {
+            *m = *material(i);
+        }
+        Self {
+            albedo: V3::from_fn(|i| ms[i].albedo),
+            ka: L::from_fn(|i| ms[i].ka),
+            kd: L::from_fn(|i| ms[i].kd),
+            ks: L::from_fn(|i| ms[i].ks),
+            shininess: ms.map(|m| m.shininess),
+        }
+    }
+}
+
+/// glam's `Vec3::normalize_or_zero`, lane-wise: v · (1/√(v·v)) when that reciprocal is
+/// finite and positive, else zero.
+#[inline(always)]
+pub fn normalize_or_zero<L: Lane>(v: V3<L>) -> V3<L> {
+    let rcp = L::splat(1.0) / v.dot(v).sqrt();
+    let ok = rcp.abs().lt(L::splat(f32::INFINITY)) & rcp.gt(L::splat(0.0));
+    V3::select(ok, v.scale(rcp), V3::splat(Vec3::ZERO))
+}
+
+/// Phong at the lanes' surfaces (`seed-scenes.md` §3): ambient, plus per light the mean
+/// over its samples of the diffuse and specular terms of the samples that see it.
+/// `sample(light, k)` gives the lanes lit by sample `k` (a bit mask) and the unit
+/// directions to it. The scalar tracer runs it on one lane; `powf` is the same scalar
+/// call on every lane. (N·L is clamped by `Lane::max`, which may turn a −0 into +0: the
+/// sums it feeds start at +0, so the bits cannot change.)
+#[inline]
+pub fn phong_lanes<L: Lane>(
+    m: &PhongLanes<L>,
+    scene: &Scene,
+    normal: V3<L>,
+    view: V3<L>,
+    mut sample: impl FnMut(usize, u32) -> (u32, V3<L>),
+) -> V3<L> {
+    let zero = V3::splat(Vec3::ZERO);
+    let (mut diffuse, mut specular) = (zero, zero);
+    for (li, light) in scene.lights.iter().enumerate() {
+        let n = light.samples();
+        let radiance = V3::<L>::splat(light.radiance);
+        let (mut light_diffuse, mut light_specular) = (zero, zero);
+        for k in 0..n {
+            let (lit, l) = sample(li, k);
+            if lit == 0 {
+                continue;
+            }
+            let mask = L::Mask::from_bits(lit);
+            let n_dot_l = normal.dot(l);
+            let d = light_diffuse + radiance.scale(n_dot_l.max(L::splat(0.0)));
+            light_diffuse = V3::select(mask, d, light_diffuse);
+            // The seed's specular term is not gated by N·L > 0.
+            let r = normalize_or_zero(normal.scale(L::splat(2.0) * n_dot_l) - l);
+            let r_dot_v = r.dot(view);
+            let spec = L::from_fn(|i| {
+                if lit >> i & 1 != 0 {
+                    r_dot_v.lane(i).max(0.0).powf(m.shininess[i])
+                } else {
+                    0.0
+                }
+            });
+            light_specular =
+                V3::select(mask, light_specular + radiance.scale(spec), light_specular);
+        }
+        let n = L::splat(n as f32);
+        let mean = |v: V3<L>| V3::new(v.x / n, v.y / n, v.z / n);
+        diffuse = diffuse + mean(light_diffuse);
+        specular = specular + mean(light_specular);
+    }
+    let sum = V3::splat(scene.ambient).scale(m.ka) + diffuse.scale(m.kd) + specular.scale(m.ks);
+    V3::new(m.albedo.x * sum.x, m.albedo.y * sum.y, m.albedo.z * sum.z)
 }
 
 /// The bounce of a path-traced material (Diffuse, Metal, Dielectric): attenuation and new

@@ -9,13 +9,13 @@
 //! every lane computes exactly what the scalar tracer computes for its pixel: the image
 //! is the same bits at every width (tests/packets.rs).
 
-use super::{scatter, RayCounts, Surface, Tracer, T_MIN};
+use super::{adds_nothing, scatter, PhongLanes, RayCounts, Surface, Tracer, T_MIN};
 use crate::accel::packet::{RayPacket, MAX_WIDTH};
 use crate::geometry::spawn::spawn_ray;
 use crate::geometry::Ray;
 use crate::lanes::Lane;
 use crate::lanes::V3;
-use crate::material::{reflect, schlick, Material};
+use crate::material::{reflect, schlick, Material, Phong};
 use crate::rng::{keys_lanes, slot, uniform_lanes, SampleKey, MAX_LIGHT_SAMPLES};
 use glam::Vec3;
 
@@ -110,9 +110,16 @@ impl Tracer<'_> {
         // camera vertex: keep the multiplication so the bits are the scalar ones.
         let weight = |c: Vec3| if camera { Vec3::ONE * c } else { c };
         let rays = &packet.rays;
-        let hits = self
-            .accel
-            .closest_hit_packet(scene, &packet, T_MIN, &mut counts.traversal);
+        let hits = if self.specialize
+            && packet.hits_box(&scene.bounds, T_MIN, f32::INFINITY) & active == 0
+        {
+            // The whole packet misses the scene: background at once.
+            counts.packets_outside += 1;
+            [None; MAX_WIDTH]
+        } else {
+            self.accel
+                .closest_hit_packet(scene, &packet, T_MIN, &mut counts.traversal)
+        };
         let mut surfaces: [Option<Surface>; MAX_WIDTH] = [None; MAX_WIDTH];
         let mut phong_lanes = 0u32;
         let mut mirror_lanes = 0u32;
@@ -160,6 +167,17 @@ impl Tracer<'_> {
             return out;
         }
 
+        // The lanes' Phong parameters.
+        let unused = Phong::default();
+        let materials =
+            PhongLanes::<L>::from_fn(|k| match hits[k].map(|h| scene.material_of(h.object)) {
+                Some(Material::Phong(p) | Material::PhongMirror { phong: p, .. })
+                    if phong_lanes >> k & 1 != 0 =>
+                {
+                    p
+                }
+                _ => &unused,
+            });
         // Shadow rays: one packet per light sample, over the lanes that shade with Phong.
         // Per sample: the lanes that have a direction, its lanes' directions and the
         // lanes that see the light.
@@ -177,42 +195,48 @@ impl Tracer<'_> {
                 let (valid, dirs, visible) =
                     &mut samples[li * MAX_LIGHT_SAMPLES as usize + j as usize];
                 let mut shadow = [NO_RAY; MAX_WIDTH];
+                let mut traced = 0u32;
                 for k in lanes(phong_lanes) {
                     let s = surfaces[k].as_ref().expect("a Phong lane has a surface");
                     if let Some(l) = self.light_direction(s, keys[k], vertex, li, j) {
                         dirs[k] = l;
-                        shadow[k] = spawn_ray(&s.point, s.normal, l);
                         *valid |= 1 << k;
+                        if self.specialize
+                            && adds_nothing(s.normal, l, -rays[k].dir, materials.shininess[k])
+                        {
+                            counts.shadow_culled += 1;
+                            continue;
+                        }
+                        shadow[k] = spawn_ray(&s.point, s.normal, l);
+                        traced |= 1 << k;
                     }
                 }
-                if *valid == 0 {
+                if traced == 0 {
                     continue;
                 }
-                counts.shadow += valid.count_ones() as u64;
-                counts.shadow_packets.record(*valid);
-                let p = RayPacket::<L>::new(&shadow, *valid);
+                counts.shadow += traced.count_ones() as u64;
+                counts.shadow_packets.record(traced);
+                let p = RayPacket::<L>::new(&shadow, traced);
                 *visible = self.accel.light_visible_packet(
                     scene,
                     &p,
                     T_MIN,
                     light,
-                    *valid,
+                    traced,
                     &mut counts.traversal,
                 );
             }
         }
+        // Phong over the lanes, the same kernel as the scalar tracer's.
+        let normal = V3::from_fn(|k| surfaces[k].map_or(Vec3::Y, |s| s.normal));
+        let view = V3::from_fn(|k| -rays[k].dir);
+        let colour = super::phong_lanes(&materials, scene, normal, view, |li, j| {
+            let (valid, dirs, visible) = &samples[li * MAX_LIGHT_SAMPLES as usize + j as usize];
+            (valid & visible, V3::from_fn(|k| dirs[k]))
+        });
         let mut local = [Vec3::ZERO; MAX_WIDTH];
         for k in lanes(phong_lanes) {
-            let s = surfaces[k].as_ref().expect("a Phong lane has a surface");
-            let hit = hits[k].expect("a Phong lane has a hit");
-            let phong = match scene.material_of(hit.object) {
-                Material::Phong(p) | Material::PhongMirror { phong: p, .. } => p,
-                _ => unreachable!("only Phong lanes are shaded here"),
-            };
-            local[k] = self.phong_with(phong, &rays[k], s, |li, j| {
-                let (valid, dirs, visible) = &samples[li * MAX_LIGHT_SAMPLES as usize + j as usize];
-                (valid >> k & 1 != 0).then(|| (dirs[k], visible >> k & 1 != 0))
-            });
+            local[k] = colour.lane(k);
             if mirror_lanes >> k & 1 == 0 {
                 out[k] = weight(local[k]);
             }
