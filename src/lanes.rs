@@ -13,7 +13,7 @@
 
 use glam::{BVec4A, Vec4};
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
-use wide::{f32x8, CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, CmpNe};
+use wide::{f32x8, i32x8, CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, CmpNe};
 
 /// Whether the 8-wide lanes run as one AVX register (else as two SSE halves).
 pub const AVX2: bool = cfg!(target_feature = "avx2");
@@ -59,6 +59,11 @@ pub trait Lane:
     fn max(self, o: Self) -> Self;
     fn sqrt(self) -> Self;
     fn abs(self) -> Self;
+    /// The smallest lane (by `min`'s rule, lane 0 first).
+    #[inline(always)]
+    fn reduce_min(self) -> f32 {
+        (1..Self::WIDTH).fold(self.lane(0), |m, i| m.min(self.lane(i)))
+    }
 }
 
 impl Mask for bool {
@@ -262,14 +267,10 @@ impl Mask for Mask8 {
     }
     #[inline(always)]
     fn from_bits(bits: u32) -> Self {
-        let on = f32::from_bits(u32::MAX);
-        Mask8(f32x8::new(std::array::from_fn(|i| {
-            if bits >> i & 1 != 0 {
-                on
-            } else {
-                0.0
-            }
-        })))
+        // Broadcast, keep bit i in lane i, compare: three instructions.
+        let lane_bits = i32x8::new([1, 2, 4, 8, 16, 32, 64, 128]);
+        let off = (i32x8::splat(bits as i32) & lane_bits).cmp_eq(i32x8::splat(0));
+        Mask8(!bytemuck::cast::<i32x8, f32x8>(off))
     }
 }
 

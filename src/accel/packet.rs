@@ -328,15 +328,22 @@ fn ids(scene: &Scene, kind: PrimKind, i: usize) -> (u32, u32) {
 
 const KINDS: [PrimKind; 3] = [PrimKind::Sphere, PrimKind::Quad, PrimKind::Triangle];
 
-/// Closest-hit state of a packet.
-struct Closest {
+/// Closest-hit state of a packet: the lanes' distance bounds (as an array and as lanes,
+/// kept equal) and best hits.
+struct Closest<L> {
     t_max: [f32; MAX_WIDTH],
+    t_max_lanes: L,
     best: [Option<Hit>; MAX_WIDTH],
 }
 
-impl Closest {
+impl<L: Lane> Closest<L> {
     #[inline(always)]
-    fn leaf<L: Lane>(
+    fn sync(&mut self) {
+        self.t_max_lanes = L::from_fn(|k| self.t_max[k]);
+    }
+
+    #[inline(always)]
+    fn leaf(
         &mut self,
         scene: &Scene,
         p: &RayPacket<L>,
@@ -345,11 +352,13 @@ impl Closest {
         t_min: f32,
         lanes: u32,
     ) {
+        let mut any = false;
         for i in range {
             let (t, mut bits) = p.test_prim(scene, kind, i, t_min, &self.t_max, lanes);
             if bits == 0 {
                 continue;
             }
+            any = true;
             let (id, object) = ids(scene, kind, i);
             while bits != 0 {
                 let k = bits.trailing_zeros() as usize;
@@ -365,20 +374,10 @@ impl Closest {
                 self.t_max[k] = t[k];
             }
         }
+        if any {
+            self.sync();
+        }
     }
-}
-
-/// Lanes of `lanes` whose value in `t_max` is at least `t`.
-#[inline(always)]
-fn lanes_reaching(t_max: &[f32; MAX_WIDTH], lanes: u32, t: f32) -> u32 {
-    let mut m = 0;
-    let mut rest = lanes;
-    while rest != 0 {
-        let k = rest.trailing_zeros();
-        rest &= rest - 1;
-        m |= ((t_max[k as usize] >= t) as u32) << k;
-    }
-    m
 }
 
 impl Bvh4 {
@@ -391,14 +390,16 @@ impl Bvh4 {
         t_min: f32,
         stats: &mut TraversalStats,
     ) -> [Option<Hit>; MAX_WIDTH] {
+        let t_max = std::array::from_fn(|k| {
+            if p.active >> k & 1 != 0 {
+                f32::INFINITY
+            } else {
+                f32::NEG_INFINITY
+            }
+        });
         let mut st = Closest {
-            t_max: std::array::from_fn(|k| {
-                if p.active >> k & 1 != 0 {
-                    f32::INFINITY
-                } else {
-                    f32::NEG_INFINITY
-                }
-            }),
+            t_max,
+            t_max_lanes: L::from_fn(|k| t_max[k]),
             best: [None; MAX_WIDTH],
         };
         for (k, kind) in KINDS.into_iter().enumerate() {
@@ -421,7 +422,7 @@ impl Bvh4 {
             let (code, lanes, enter) = unsafe { stack[sp].assume_init() };
             // Lanes whose closest hit is already nearer than the box's entry (the
             // smallest over the lanes that entered it) leave the subtree.
-            let lanes = lanes_reaching(&st.t_max, lanes, enter);
+            let lanes = st.t_max_lanes.ge(L::splat(enter)).bits() & lanes;
             if lanes == 0 {
                 continue;
             }
@@ -442,14 +443,13 @@ impl Bvh4 {
             stats.packet_nodes += 1;
             stats.packet_lanes += lanes.count_ones() as u64;
             let node = &self.nodes[code as usize];
-            let t_max = L::from_fn(|k| {
-                if lanes >> k & 1 != 0 {
-                    st.t_max[k]
-                } else {
-                    f32::NEG_INFINITY
-                }
-            });
+            let t_max = L::select(
+                L::Mask::from_bits(lanes),
+                st.t_max_lanes,
+                L::splat(f32::NEG_INFINITY),
+            );
             let mut hits = [(0u32, 0u32, 0f32); 4];
+            let mut finished_alone = false;
             let mut n = 0;
             for c in 0..4 {
                 let child = node.child[c];
@@ -480,15 +480,11 @@ impl Bvh4 {
                             stats,
                         );
                     }
+                    finished_alone = true;
                     continue;
                 }
-                let mut d = f32::INFINITY;
-                let mut rest = bits;
-                while rest != 0 {
-                    let k = rest.trailing_zeros() as usize;
-                    rest &= rest - 1;
-                    d = d.min(entry.lane(k));
-                }
+                let d = L::select(L::Mask::from_bits(bits), entry, L::splat(f32::INFINITY))
+                    .reduce_min();
                 // Insert sorted, farthest first, so the nearest is popped next.
                 let mut j = n;
                 while j > 0 && hits[j - 1].2 < d {
@@ -497,6 +493,9 @@ impl Bvh4 {
                 }
                 hits[j] = (child, bits, d);
                 n += 1;
+            }
+            if finished_alone {
+                st.sync();
             }
             for h in &hits[..n] {
                 stack[sp].write(*h);
