@@ -12,6 +12,7 @@ pub mod generate;
 pub mod geometry;
 pub mod integrator;
 pub mod material;
+pub mod metrics;
 pub mod output;
 pub mod render;
 pub mod rng;
