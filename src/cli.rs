@@ -6,6 +6,7 @@ use crate::accel::{Accel, AccelKind};
 use crate::integrator::RayCounts;
 use crate::output::{self, ImageFormat};
 use crate::render::{self, RenderSettings};
+use crate::rng::SamplerKind;
 use crate::scene::{builtin, Overrides, Scene, SceneSource};
 use anyhow::Context;
 use clap::Parser;
@@ -25,7 +26,7 @@ pub struct Args {
     #[arg(required_unless_present = "list")]
     pub scene: Option<String>,
 
-    /// Output image, .png or .ppm [default: <scene>.png]
+    /// Output image: .png or .ppm (8-bit, gamma 2), .exr (linear f32) [default: <scene>.png]
     #[arg(short, long)]
     pub output: Option<PathBuf>,
 
@@ -48,6 +49,11 @@ pub struct Args {
     /// Seed of the random numbers.
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
+
+    /// How pixel jitter, light samples and bounces are spread: independent random numbers
+    /// (the seed's), stratified (correlated multi-jittered) or Owen-scrambled Sobol.
+    #[arg(long, value_enum, default_value_t = SamplerKind::Independent)]
+    pub sampler: SamplerKind,
 
     /// Rays per packet: 1 (scalar), 4 or 8.
     #[arg(long, default_value_t = 1, value_parser = parse_packet_width)]
@@ -197,7 +203,10 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
     } else {
         None
     };
-    let settings = RenderSettings { seed: args.seed };
+    let settings = RenderSettings {
+        seed: args.seed,
+        sampler: args.sampler,
+    };
     let on_tile = || {
         if let Some(b) = &bar {
             b.inc(1)

@@ -9,7 +9,7 @@ use crate::accel::{Accel, TraversalStats};
 use crate::geometry::spawn::{planar_point, spawn_ray, sphere_point, ErrorPoint};
 use crate::geometry::{Hit, PrimKind, Ray};
 use crate::material::{random_unit_vector, reflect, refract, schlick, Material, Phong};
-use crate::rng::{slot, SampleKey};
+use crate::rng::{slot, SampleKey, Sampler};
 use crate::scene::{LightShape, Scene};
 use glam::Vec3;
 
@@ -58,17 +58,27 @@ pub struct Surface {
 pub struct Tracer<'a> {
     pub scene: &'a Scene,
     pub accel: &'a Accel,
-    pub seed: u32,
+    /// Where every random number comes from (`--sampler`, `--seed`).
+    pub sampler: Sampler,
 }
 
 impl<'a> Tracer<'a> {
+    /// A tracer with the independent sampler (the seed's random numbers).
     pub fn new(scene: &'a Scene, accel: &'a Accel, seed: u32) -> Self {
-        Self { scene, accel, seed }
+        Self::with_sampler(scene, accel, Sampler::independent(seed))
+    }
+
+    pub fn with_sampler(scene: &'a Scene, accel: &'a Accel, sampler: Sampler) -> Self {
+        Self {
+            scene,
+            accel,
+            sampler,
+        }
     }
 
     /// The colour of camera sample `sample` of pixel (x, y).
     pub fn sample(&self, x: u32, y: u32, sample: u32, counts: &mut RayCounts) -> Vec3 {
-        let key = SampleKey::new(self.seed, x, y, sample);
+        let key = self.sampler.key(x, y, sample);
         let jx = key.uniform(0, slot::JITTER_X);
         let jy = key.uniform(0, slot::JITTER_Y);
         let ray = self.scene.camera.ray(x, y, jx, jy);
@@ -344,7 +354,7 @@ mod tests {
         // Schlick at normal incidence for 1/1.5 is 0.04: any choice above it refracts.
         let mut refracted = 0;
         for i in 0..100 {
-            let d = dielectric_direction(&ray, &s, 1.5, SampleKey(i), 0);
+            let d = dielectric_direction(&ray, &s, 1.5, SampleKey::from_hash(i), 0);
             if d == -Vec3::Z {
                 refracted += 1;
             } else {

@@ -5,6 +5,7 @@
 use crate::accel::Accel;
 use crate::error::{Error, Result};
 use crate::integrator::{RayCounts, Tracer};
+use crate::rng::{Sampler, SamplerKind};
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -50,9 +51,11 @@ impl Film {
     }
 }
 
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 pub struct RenderSettings {
     pub seed: u32,
+    /// Independent (the default, the seed's numbers), stratified or Sobol.
+    pub sampler: SamplerKind,
 }
 
 /// The result of a render.
@@ -71,7 +74,8 @@ pub fn render(
 ) -> Result<Rendered> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     let mut film = Film::new(w, h)?;
-    let tracer = Tracer::new(scene, accel, settings.seed);
+    let sampler = Sampler::new(settings.sampler, settings.seed, scene.spp);
+    let tracer = Tracer::with_sampler(scene, accel, sampler);
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);
     let tiles: Vec<(u32, u32)> = (0..tiles_y)

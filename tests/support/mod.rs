@@ -33,8 +33,18 @@ pub fn render_with(scene: &Scene, accel: AccelKind, threads: usize, seed: u32) -
         .num_threads(threads)
         .build()
         .unwrap();
-    pool.install(|| render(&scene, &accel, &RenderSettings { seed }, &|| {}))
-        .unwrap()
+    pool.install(|| {
+        render(
+            &scene,
+            &accel,
+            &RenderSettings {
+                seed,
+                ..Default::default()
+            },
+            &|| {},
+        )
+    })
+    .unwrap()
 }
 
 pub fn render_film(scene: &Scene, threads: usize) -> Film {
