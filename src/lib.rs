@@ -17,5 +17,6 @@ pub mod output;
 pub mod render;
 pub mod rng;
 pub mod scene;
+pub mod sweep;
 
 pub use error::{Error, Result};
