@@ -214,47 +214,89 @@ impl Dimension {
     }
 }
 
-/// Owen scrambling of the bits of `x` read from the most significant one (a base-2 digit
-/// expansion of x / 2³²): Laine–Karras-style hash on the reversed bits, with Vegdahl's
-/// constants (Burley 2020, "Practical hash-based Owen scrambling").
+/// The Laine–Karras-style permutation with Vegdahl's constants: an Owen scramble of the
+/// bits of `x` read from the least significant one (each output bit depends only on the
+/// input bits below it).
 #[inline]
-fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
-    let mut x = x.reverse_bits();
+fn lk_permutation(mut x: u32, seed: u32) -> u32 {
     x ^= x.wrapping_mul(0x3d20_adea);
     x = x.wrapping_add(seed);
     x = x.wrapping_mul((seed >> 16) | 1);
     x ^= x.wrapping_mul(0x0552_6c56);
     x ^= x.wrapping_mul(0x53a2_2864);
-    x.reverse_bits()
+    x
 }
 
-/// The second dimension of the Sobol sequence (the first is `index.reverse_bits()`).
-#[inline]
-fn sobol_dim1(mut index: u32) -> u32 {
-    let mut result = 0;
-    let mut v = 1u32 << 31;
-    while index != 0 {
-        if index & 1 != 0 {
-            result ^= v;
-        }
-        index >>= 1;
-        v ^= v >> 1;
+/// Owen scrambling of the bits of `x` read from the most significant one (a base-2 digit
+/// expansion of x / 2³²): the permutation on the reversed bits (Burley 2020, "Practical
+/// hash-based Owen scrambling").
+#[cfg(test)]
+fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
+    lk_permutation(x.reverse_bits(), seed).reverse_bits()
+}
+
+/// `DIM1_REVERSED[b][x]`: reverse(sobol₁(reverse(r))) for the bits of byte b of r, where
+/// sobol₁ is the second Sobol dimension (the xor of the direction numbers v₀ = 2³¹,
+/// vᵢ₊₁ = vᵢ ^ (vᵢ >> 1) of the index's set bits). Bit j of r is bit 31 − j of the index, so
+/// it contributes reverse(v₃₁₋ⱼ). Looked up a byte at a time.
+static DIM1_REVERSED: [[u32; 256]; 4] = dim1_reversed_tables();
+
+const fn dim1_reversed_tables() -> [[u32; 256]; 4] {
+    let mut v = [0u32; 32];
+    v[0] = 1 << 31;
+    let mut i = 1;
+    while i < 32 {
+        v[i] = v[i - 1] ^ (v[i - 1] >> 1);
+        i += 1;
     }
-    result
+    let mut t = [[0u32; 256]; 4];
+    let mut b = 0;
+    while b < 4 {
+        let mut x = 0;
+        while x < 256 {
+            let mut r = 0u32;
+            let mut bit = 0;
+            while bit < 8 {
+                if x & (1 << bit) != 0 {
+                    r ^= v[31 - (8 * b + bit)].reverse_bits();
+                }
+                bit += 1;
+            }
+            t[b][x] = r;
+            x += 1;
+        }
+        b += 1;
+    }
+    t
+}
+
+#[inline]
+fn dim1_reversed(r: u32) -> u32 {
+    let t = &DIM1_REVERSED;
+    t[0][(r & 0xff) as usize]
+        ^ t[1][((r >> 8) & 0xff) as usize]
+        ^ t[2][((r >> 16) & 0xff) as usize]
+        ^ t[3][(r >> 24) as usize]
 }
 
 /// Component `component` (0 or 1) of point `index` of the shuffled, Owen-scrambled 2D
 /// Sobol sequence with scramble `seed`, as 32 bits of a fraction. The shuffle is itself an
 /// Owen scramble of the index, so the first 2^k points are still a (0, k, 2)-net.
+///
+/// Computed in the bit-reversed domain, where the scrambles need no reversal: with
+/// r = lk(reverse(index)) the shuffled index is reverse(r); component 0 is
+/// reverse(lk(reverse(r))) and component 1 reverse(lk(reverse(sobol₁(reverse(r))))), the
+/// inner part a table lookup. [`tests::sobol_owen_is_the_plain_construction`] checks it
+/// against the construction written out.
 #[inline]
 pub fn sobol_owen(index: u32, seed: u32, component: u32) -> u32 {
-    let i = nested_uniform_scramble(index, seed);
-    let (bits, salt) = if component == 0 {
-        (i.reverse_bits(), 0x9e37_79b9)
+    let r = lk_permutation(index.reverse_bits(), seed);
+    let (bits_reversed, salt) = if component == 0 {
+        (r.reverse_bits(), 0x9e37_79b9)
     } else {
-        (sobol_dim1(i), 0x7f4a_7c15)
+        (dim1_reversed(r), 0x7f4a_7c15)
     };
-    nested_uniform_scramble(bits, hash_u32(seed ^ salt))
+    lk_permutation(bits_reversed, hash_u32(seed ^ salt)).reverse_bits()
 }
 
 /// Kensler's hash-based permutation of [0, l): element `i` under pattern `p`.
@@ -512,6 +554,43 @@ mod tests {
             let u = |seed, x| Sampler::new(kind, seed, 4).key(x, 0, 1).uniform(0, 0);
             assert_ne!(u(0, 0), u(0, 1));
             assert_ne!(u(0, 0), u(1, 0));
+        }
+    }
+
+    /// The second Sobol dimension by its direction numbers.
+    fn sobol_dim1(mut index: u32) -> u32 {
+        let (mut r, mut v) = (0u32, 1u32 << 31);
+        while index != 0 {
+            if index & 1 != 0 {
+                r ^= v;
+            }
+            index >>= 1;
+            v ^= v >> 1;
+        }
+        r
+    }
+
+    #[test]
+    fn sobol_owen_is_the_plain_construction() {
+        // Burley's listing: shuffle the index, take the Sobol point, scramble each axis.
+        let plain = |index: u32, seed: u32, component: u32| {
+            let i = nested_uniform_scramble(index, seed);
+            if component == 0 {
+                nested_uniform_scramble(i.reverse_bits(), hash_u32(seed ^ 0x9e37_79b9))
+            } else {
+                nested_uniform_scramble(sobol_dim1(i), hash_u32(seed ^ 0x7f4a_7c15))
+            }
+        };
+        // The first points of dimension 1: 0, 1/2, 3/4, 1/4.
+        assert_eq!(sobol_dim1(1), 1 << 31);
+        assert_eq!(sobol_dim1(2), 3 << 30);
+        assert_eq!(sobol_dim1(3), 1 << 30);
+        for seed in [0, 1, 0xdead_beef, u32::MAX] {
+            for i in (0..2048).chain([u32::MAX, 0x8000_0001, 0x1234_5678]) {
+                for c in [0, 1] {
+                    assert_eq!(sobol_owen(i, seed, c), plain(i, seed, c), "{i} {seed} {c}");
+                }
+            }
         }
     }
 }
