@@ -71,7 +71,7 @@ fn shadow_packets(scene: &Scene, accel: &Accel, camera: &[Packet]) -> Vec<Packet
                 continue;
             }
             let s = tracer.surface(&rays[k], &hit);
-            if let Some((_, r)) = tracer.shadow_ray(&s, SampleKey(0), 0, 0, 0) {
+            if let Some((_, r)) = tracer.shadow_ray(&s, SampleKey::from_hash(0), 0, 0, 0) {
                 shadow[k] = spawn_ray(&s.point, s.normal, r.dir);
                 m |= 1 << k;
             }

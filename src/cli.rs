@@ -6,9 +6,10 @@ use crate::accel::{Accel, AccelKind};
 use crate::integrator::RayCounts;
 use crate::output::{self, ImageFormat};
 use crate::render::{self, RenderSettings};
+use crate::rng::SamplerKind;
 use crate::scene::{builtin, Overrides, Scene, SceneSource};
 use anyhow::Context;
-use clap::Parser;
+use clap::{Parser, Subcommand};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -28,14 +29,20 @@ const VERSION: &str = if cfg!(target_feature = "avx2") {
 #[command(
     name = "raytracer",
     version = VERSION,
-    about = "A data-oriented SIMD packet ray tracer"
+    about = "A data-oriented SIMD packet ray tracer",
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true
 )]
 pub struct Args {
+    /// Error against time: `reference` and `sweep` (see `raytracer sweep --help`).
+    #[command(subcommand)]
+    pub command: Option<Command>,
+
     /// A built-in scene name (see --list) or a path to a .toml scene file.
     #[arg(required_unless_present = "list")]
     pub scene: Option<String>,
 
-    /// Output image, .png or .ppm [default: <scene>.png]
+    /// Output image: .png or .ppm (8-bit, gamma 2), .exr (linear f32) [default: <scene>.png]
     #[arg(short, long)]
     pub output: Option<PathBuf>,
 
@@ -58,6 +65,11 @@ pub struct Args {
     /// Seed of the random numbers.
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
+
+    /// How pixel jitter, light samples and bounces are spread: independent random numbers
+    /// (the seed's), stratified (correlated multi-jittered) or Owen-scrambled Sobol.
+    #[arg(long, value_enum, default_value_t = SamplerKind::Independent)]
+    pub sampler: SamplerKind,
 
     /// Rays per packet: 1 (scalar), 4 or 8.
     #[arg(long, default_value_t = 1, value_parser = parse_packet_width)]
@@ -89,6 +101,74 @@ pub struct Args {
     /// Write a JSON report of sizes, timings and ray counts to this file.
     #[arg(long)]
     pub report: Option<PathBuf>,
+}
+
+/// The error-against-time commands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Render a high-spp reference image (EXR, linear f32) for `sweep`.
+    Reference(ReferenceArgs),
+    /// Render a scene at spp = 1, 2, 4, …, --spp-max for each sampler, time each render and
+    /// measure its error against the reference; write a CSV and an SVG chart.
+    Sweep(SweepArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct ReferenceArgs {
+    /// A built-in scene name or a .toml scene file.
+    pub scene: String,
+    /// Image width (keep it small: the sweep renders at the same width).
+    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub width: u32,
+    /// Samples per pixel of the reference (two halves with different seeds).
+    #[arg(long, default_value_t = 4096, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
+    pub spp: u32,
+    /// Sampler of the reference.
+    #[arg(long, value_enum, default_value_t = SamplerKind::Sobol)]
+    pub sampler: SamplerKind,
+    /// Output EXR [default: target/reference/<scene>-w<width>-<spp>spp.exr].
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub threads: Option<u32>,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct SweepArgs {
+    /// A built-in scene name or a .toml scene file.
+    pub scene: String,
+    /// Image width (the reduced size that keeps a sweep to minutes).
+    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub width: u32,
+    /// The largest spp of the sweep (spp = 1, 2, 4, … up to it).
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+    pub spp_max: u32,
+    /// Renders per point; the time is their median.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub runs: u32,
+    /// Samplers to sweep.
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = SamplerKind::ALL)]
+    pub samplers: Vec<SamplerKind>,
+    /// Packet widths to sweep (widths the renderer does not implement yet are skipped).
+    #[arg(long, value_delimiter = ',', default_values_t = [1u32], value_parser = parse_packet_width)]
+    pub packet_widths: Vec<u32>,
+    /// Seed of the swept renders.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Directory of the CSV (<scene>.csv), chart (<scene>.svg) and summary (<scene>.txt).
+    #[arg(long, default_value = "target/sweep")]
+    pub out: PathBuf,
+    /// Reference EXR (with its .json note beside it); made first if it does not exist
+    /// [default: target/reference/<scene>-w<width>-<reference-spp>spp.exr].
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    /// Samples per pixel of a reference made by the sweep.
+    #[arg(long, default_value_t = 4096, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
+    pub reference_spp: u32,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub threads: Option<u32>,
 }
 
 fn parse_packet_width(s: &str) -> Result<u32, String> {
@@ -164,6 +244,11 @@ pub fn main() -> ExitCode {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
+    match &args.command {
+        Some(Command::Reference(r)) => return run_reference(r),
+        Some(Command::Sweep(s)) => return run_sweep(s),
+        None => {}
+    }
     if args.list {
         for name in builtin::names() {
             let source = SceneSource::resolve(name)?;
@@ -223,6 +308,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
         seed: args.seed,
         packet_width: args.packet_width,
         specialize: !args.no_specialize,
+        sampler: args.sampler,
     };
     let on_tile = || {
         if let Some(b) = &bar {
@@ -347,4 +433,159 @@ fn scene_stem(arg: &str) -> String {
     std::path::Path::new(arg)
         .file_stem()
         .map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned())
+}
+
+fn pool(threads: Option<u32>) -> anyhow::Result<(rayon::ThreadPool, usize)> {
+    let threads = threads.map_or_else(num_threads, |t| t as usize);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("cannot start the worker threads")?;
+    Ok((pool, threads))
+}
+
+fn default_reference(scene: &str, width: u32, spp: u32) -> PathBuf {
+    crate::sweep::reference_path(std::path::Path::new("target/reference"), scene, width, spp)
+}
+
+/// Make the directory of a default output path (under `target/`).
+fn create_parent(path: &std::path::Path) -> anyhow::Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create directory {}", dir.display()))?;
+    }
+    Ok(())
+}
+
+fn run_reference(r: &ReferenceArgs) -> anyhow::Result<ExitCode> {
+    let path = match &r.output {
+        Some(p) => p.clone(),
+        None => {
+            let p = default_reference(&r.scene, r.width, r.spp);
+            create_parent(&p)?;
+            p
+        }
+    };
+    if ImageFormat::for_path(&path)? != ImageFormat::Exr {
+        anyhow::bail!("{}: a reference is written as .exr", path.display());
+    }
+    let (pool, threads) = pool(r.threads)?;
+    let info = pool.install(|| {
+        crate::sweep::make_reference(&r.scene, Some(r.width), r.spp, r.sampler, &path)
+    })?;
+    eprintln!(
+        "reference {}: {}x{}, {} spp {}, {:.1} s on {threads} threads, estimated own RMSE {:.3e} -> {}",
+        info.scene,
+        info.width,
+        info.height,
+        info.spp,
+        info.sampler,
+        info.seconds,
+        info.estimated_mse.sqrt(),
+        path.display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn run_sweep(a: &SweepArgs) -> anyhow::Result<ExitCode> {
+    use crate::sweep;
+    let (pool, threads) = pool(a.threads)?;
+    let reference_path = match &a.reference {
+        Some(p) => p.clone(),
+        None => default_reference(&a.scene, a.width, a.reference_spp),
+    };
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create directory {}", a.out.display()))?;
+    let stem = scene_stem(&a.scene);
+    let csv_path = a.out.join(format!("{stem}.csv"));
+    let svg_path = a.out.join(format!("{stem}.svg"));
+    let txt_path = a.out.join(format!("{stem}.txt"));
+    for p in [&csv_path, &svg_path, &txt_path] {
+        output::check_writable(p)?;
+    }
+    if !reference_path.exists() {
+        create_parent(&reference_path)?;
+        eprintln!(
+            "making the reference {} ({} spp)",
+            reference_path.display(),
+            a.reference_spp
+        );
+        let info = pool.install(|| {
+            sweep::make_reference(
+                &a.scene,
+                Some(a.width),
+                a.reference_spp,
+                SamplerKind::Sobol,
+                &reference_path,
+            )
+        })?;
+        eprintln!(
+            "reference: {:.1} s, estimated own RMSE {:.3e}",
+            info.seconds,
+            info.estimated_mse.sqrt()
+        );
+    }
+    let (reference, info) = sweep::load_reference(&reference_path)?;
+    let (mut scene, accel) = sweep::prepare(&a.scene, Some(a.width))?;
+    let widths: Vec<u32> = a
+        .packet_widths
+        .iter()
+        .copied()
+        .filter(|&w| {
+            let ok = sweep::packet_width_supported(w);
+            if !ok {
+                eprintln!("note: packet width {w} is not built yet; skipped");
+            }
+            ok
+        })
+        .collect();
+    let plan = sweep::SweepPlan {
+        spp_max: a.spp_max,
+        runs: a.runs,
+        samplers: a.samplers.clone(),
+        packet_widths: widths,
+        seed: a.seed,
+    };
+    eprintln!(
+        "sweep {}: {}x{}, {threads} threads, {} runs a point; reference {} spp, estimated own RMSE {:.3e}",
+        scene.name,
+        scene.camera.width,
+        scene.camera.height,
+        a.runs,
+        info.spp,
+        info.estimated_mse.sqrt()
+    );
+    let points = pool.install(|| {
+        sweep::run_sweep(&mut scene, &accel, &reference, &plan, &mut |p| {
+            eprintln!(
+                "  {:<11} x{} {:>5} spp  {:>8.4} s ({:.4}–{:.4})  RMSE {:.4e}  relMSE {:.4e}  PSNR {:.2} dB",
+                p.sampler.name(),
+                p.packet_width,
+                p.spp,
+                p.seconds,
+                p.seconds_min,
+                p.seconds_max,
+                p.errors.rmse,
+                p.errors.rel_mse,
+                p.errors.psnr
+            )
+        })
+    })?;
+    let csv = sweep::csv(&scene, &info, threads, &points);
+    let svg = sweep::chart(&scene.name, &points, &info);
+    let summary = sweep::summary(&points);
+    for (path, text) in [(&csv_path, &csv), (&svg_path, &svg), (&txt_path, &summary)] {
+        output::write_atomically(path, |out| {
+            use std::io::Write;
+            out.write_all(text.as_bytes())
+        })?;
+    }
+    print!("{summary}");
+    eprintln!(
+        "wrote {}, {}, {}",
+        csv_path.display(),
+        svg_path.display(),
+        txt_path.display()
+    );
+    Ok(ExitCode::SUCCESS)
 }

@@ -13,9 +13,11 @@ pub mod geometry;
 pub mod integrator;
 pub mod lanes;
 pub mod material;
+pub mod metrics;
 pub mod output;
 pub mod render;
 pub mod rng;
 pub mod scene;
+pub mod sweep;
 
 pub use error::{Error, Result};

@@ -7,6 +7,7 @@ use crate::accel::Accel;
 use crate::error::{Error, Result};
 use crate::integrator::{footprint, RayCounts, Tracer};
 use crate::lanes::Lane;
+use crate::rng::{Sampler, SamplerKind};
 use crate::scene::Scene;
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
@@ -60,15 +61,25 @@ pub struct RenderSettings {
     pub packet_width: u32,
     /// Skip what the scene does not need (`Tracer::specialize`); the same bits.
     pub specialize: bool,
+    /// Independent (the default, the seed's numbers), stratified or Sobol.
+    pub sampler: SamplerKind,
 }
 
 impl RenderSettings {
+    /// Seed `seed`, scalar, specialised, independent sampler.
     pub fn new(seed: u32) -> Self {
         Self {
             seed,
             packet_width: 1,
             specialize: true,
+            sampler: SamplerKind::default(),
         }
+    }
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self::new(0)
     }
 }
 
@@ -88,7 +99,8 @@ pub fn render(
 ) -> Result<Rendered> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     let mut film = Film::new(w, h)?;
-    let mut tracer = Tracer::new(scene, accel, settings.seed);
+    let sampler = Sampler::new(settings.sampler, settings.seed, scene.spp);
+    let mut tracer = Tracer::with_sampler(scene, accel, sampler);
     tracer.specialize = settings.specialize;
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);

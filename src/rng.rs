@@ -5,6 +5,11 @@
 //! tile order or the packet width, and the scalar and packet tracers consume exactly the
 //! same numbers (`design.md` §4). The hash is Wellons' `lowbias32`: fixed shifts and
 //! multiplies only, so the packet tracers can evaluate it lane-wise.
+//!
+//! A [`Sampler`] (`--sampler`) decides how the numbers are spread: independent (the
+//! seed's), stratified (correlated multi-jittered) or Owen-scrambled Sobol. The tracer
+//! asks `sampler.key(x, y, sample)` once per camera sample and then `key.uniform(vertex,
+//! slot)` wherever it needs a number, whatever the kind.
 
 /// An integer hash with good avalanche (Chris Wellons, "lowbias32").
 #[inline]
@@ -23,24 +28,146 @@ pub fn to_unit(bits: u32) -> f32 {
     (bits >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
-/// The key of one camera sample of one pixel.
+/// Which numbers a render uses for pixel jitter, light samples and bounces (`--sampler`).
+///
+/// Every kind is a pure function of (seed, pixel, sample index, dimension) — the
+/// stratified one also of the sample count — so images stay the same for any thread count,
+/// tile order or packet width, and a packet tracer can evaluate it per lane.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SamplerKind {
+    /// Independent hashed numbers: the seed's plain random jitter (the default; its images
+    /// are bit for bit those of the renderer before samplers existed).
+    #[default]
+    Independent,
+    /// Correlated multi-jittered sampling (Kensler 2013): per pixel and per pair of
+    /// dimensions, the N = spp × (draws per sample) points are jittered in an m × n grid
+    /// and stratified in N strata along one axis.
+    Stratified,
+    /// Owen-scrambled Sobol (0,2)-sequence, padded: every pair of dimensions gets its own
+    /// scramble and its own shuffle of the sample index (Burley 2020), per pixel.
+    Sobol,
+}
+
+impl SamplerKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            SamplerKind::Independent => "independent",
+            SamplerKind::Stratified => "stratified",
+            SamplerKind::Sobol => "sobol",
+        }
+    }
+
+    pub const ALL: [SamplerKind; 3] = [
+        SamplerKind::Independent,
+        SamplerKind::Stratified,
+        SamplerKind::Sobol,
+    ];
+}
+
+/// A sampler of one render: its kind, seed and samples per pixel. The tracer asks it for
+/// the [`SampleKey`] of each camera sample and then draws numbers from the key by
+/// (path vertex, slot), whatever the kind.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct SampleKey(pub u32);
+pub struct Sampler {
+    pub kind: SamplerKind,
+    pub seed: u32,
+    /// Samples per pixel (the stratified sampler divides the pixel's draws among them).
+    pub spp: u32,
+}
+
+impl Sampler {
+    pub fn new(kind: SamplerKind, seed: u32, spp: u32) -> Self {
+        Self {
+            kind,
+            seed,
+            spp: spp.max(1),
+        }
+    }
+
+    /// The independent sampler (the seed's behaviour).
+    pub fn independent(seed: u32) -> Self {
+        Self::new(SamplerKind::Independent, seed, 1)
+    }
+
+    /// The key of camera sample `sample` of pixel (x, y).
+    #[inline]
+    pub fn key(&self, x: u32, y: u32, sample: u32) -> SampleKey {
+        let pixel = pixel_hash(self.seed, x, y);
+        SampleKey {
+            hash: hash_u32(pixel.wrapping_add(sample)),
+            pixel,
+            sample,
+            spp: self.spp,
+            kind: self.kind,
+        }
+    }
+}
+
+#[inline]
+fn pixel_hash(seed: u32, x: u32, y: u32) -> u32 {
+    let h = hash_u32(hash_u32(seed).wrapping_add(x));
+    hash_u32(h.wrapping_add(y))
+}
+
+/// The key of one camera sample of one pixel: what [`SampleKey::uniform`] needs to give
+/// every (path vertex, slot) its number.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SampleKey {
+    /// hash(seed, x, y, sample): the independent sampler's key.
+    pub hash: u32,
+    /// hash(seed, x, y).
+    pixel: u32,
+    sample: u32,
+    spp: u32,
+    kind: SamplerKind,
+}
 
 impl SampleKey {
+    /// The independent sampler's key of camera sample `sample` of pixel (x, y).
     #[inline]
     pub fn new(seed: u32, x: u32, y: u32, sample: u32) -> Self {
-        let h = hash_u32(hash_u32(seed).wrapping_add(x));
-        let h = hash_u32(h.wrapping_add(y));
-        Self(hash_u32(h.wrapping_add(sample)))
+        Sampler::independent(seed).key(x, y, sample)
+    }
+
+    /// An independent key from its hash directly (tests: many keys cheaply).
+    pub fn from_hash(hash: u32) -> Self {
+        Self {
+            hash,
+            pixel: 0,
+            sample: 0,
+            spp: 1,
+            kind: SamplerKind::Independent,
+        }
+    }
+
+    pub fn kind(self) -> SamplerKind {
+        self.kind
     }
 
     /// The uniform number in [0, 1) for `slot` at path vertex `vertex` (0 = the surface the
     /// camera ray hits; a mirror reflection or a bounce moves to the next vertex).
     #[inline]
     pub fn uniform(self, vertex: u32, slot: u32) -> f32 {
-        let dim = hash_u32(hash_u32(vertex).wrapping_add(slot));
-        to_unit(hash_u32(self.0 ^ dim))
+        match self.kind {
+            SamplerKind::Independent => {
+                let dim = hash_u32(hash_u32(vertex).wrapping_add(slot));
+                to_unit(hash_u32(self.hash ^ dim))
+            }
+            SamplerKind::Stratified | SamplerKind::Sobol => {
+                let d = Dimension::of(slot);
+                // One scramble per pixel and pair of dimensions.
+                let pair = hash_u32(hash_u32(vertex).wrapping_add(d.pair));
+                let seed = hash_u32(self.pixel ^ pair);
+                let index = self.sample.wrapping_mul(d.draws).wrapping_add(d.draw);
+                if self.kind == SamplerKind::Sobol {
+                    to_unit(sobol_owen(index, seed, d.component))
+                } else {
+                    let n = self.spp.saturating_mul(d.draws);
+                    cmj(index % n, n, seed, d.component)
+                }
+            }
+        }
     }
 }
 
@@ -86,6 +213,208 @@ pub fn hash_lanes<const N: usize>(mut x: [u32; N]) -> [u32; N] {
     }
     x
 }
+
+/// Where a slot sits among the pairs of dimensions the structured samplers stratify.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Dimension {
+    /// The first slot of the pair (its identity).
+    pair: u32,
+    /// 0 or 1 within the pair (a one-dimensional slot is component 0 of its own pair).
+    component: u32,
+    /// Draws of this pair per camera sample (light samples: `MAX_LIGHT_SAMPLES`) and which
+    /// one this is: the pixel's draws of a pair are indexed sample × draws + draw.
+    draws: u32,
+    draw: u32,
+}
+
+impl Dimension {
+    #[inline]
+    fn of(s: u32) -> Self {
+        let one = |pair, component| Dimension {
+            pair,
+            component,
+            draws: 1,
+            draw: 0,
+        };
+        match s {
+            slot::JITTER_X | slot::JITTER_Y => one(slot::JITTER_X, s - slot::JITTER_X),
+            slot::SCATTER_A | slot::SCATTER_B => one(slot::SCATTER_A, s - slot::SCATTER_A),
+            _ if s < slot::LIGHT_BASE => one(s, 0),
+            _ => {
+                // slot::light(light, k, c): c = 0 picks the primitive (one dimension),
+                // c = 1, 2 are the point on it (a pair); k is the draw.
+                let rel = s - slot::LIGHT_BASE;
+                let (lk, c) = (rel / 3, rel % 3);
+                let (light, k) = (lk / MAX_LIGHT_SAMPLES, lk % MAX_LIGHT_SAMPLES);
+                Dimension {
+                    pair: slot::light(light, 0, c.min(1)),
+                    component: c.saturating_sub(1),
+                    draws: MAX_LIGHT_SAMPLES,
+                    draw: k,
+                }
+            }
+        }
+    }
+}
+
+/// The Laine–Karras-style permutation with Vegdahl's constants: an Owen scramble of the
+/// bits of `x` read from the least significant one (each output bit depends only on the
+/// input bits below it).
+#[inline]
+fn lk_permutation(mut x: u32, seed: u32) -> u32 {
+    x ^= x.wrapping_mul(0x3d20_adea);
+    x = x.wrapping_add(seed);
+    x = x.wrapping_mul((seed >> 16) | 1);
+    x ^= x.wrapping_mul(0x0552_6c56);
+    x ^= x.wrapping_mul(0x53a2_2864);
+    x
+}
+
+/// Owen scrambling of the bits of `x` read from the most significant one (a base-2 digit
+/// expansion of x / 2³²): the permutation on the reversed bits (Burley 2020, "Practical
+/// hash-based Owen scrambling").
+#[cfg(test)]
+fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
+    lk_permutation(x.reverse_bits(), seed).reverse_bits()
+}
+
+/// `DIM1_REVERSED[b][x]`: reverse(sobol₁(reverse(r))) for the bits of byte b of r, where
+/// sobol₁ is the second Sobol dimension (the xor of the direction numbers v₀ = 2³¹,
+/// vᵢ₊₁ = vᵢ ^ (vᵢ >> 1) of the index's set bits). Bit j of r is bit 31 − j of the index, so
+/// it contributes reverse(v₃₁₋ⱼ). Looked up a byte at a time.
+static DIM1_REVERSED: [[u32; 256]; 4] = dim1_reversed_tables();
+
+const fn dim1_reversed_tables() -> [[u32; 256]; 4] {
+    let mut v = [0u32; 32];
+    v[0] = 1 << 31;
+    let mut i = 1;
+    while i < 32 {
+        v[i] = v[i - 1] ^ (v[i - 1] >> 1);
+        i += 1;
+    }
+    let mut t = [[0u32; 256]; 4];
+    let mut b = 0;
+    while b < 4 {
+        let mut x = 0;
+        while x < 256 {
+            let mut r = 0u32;
+            let mut bit = 0;
+            while bit < 8 {
+                if x & (1 << bit) != 0 {
+                    r ^= v[31 - (8 * b + bit)].reverse_bits();
+                }
+                bit += 1;
+            }
+            t[b][x] = r;
+            x += 1;
+        }
+        b += 1;
+    }
+    t
+}
+
+#[inline]
+fn dim1_reversed(r: u32) -> u32 {
+    let t = &DIM1_REVERSED;
+    t[0][(r & 0xff) as usize]
+        ^ t[1][((r >> 8) & 0xff) as usize]
+        ^ t[2][((r >> 16) & 0xff) as usize]
+        ^ t[3][(r >> 24) as usize]
+}
+
+/// Component `component` (0 or 1) of point `index` of the shuffled, Owen-scrambled 2D
+/// Sobol sequence with scramble `seed`, as 32 bits of a fraction. The shuffle is itself an
+/// Owen scramble of the index, so the first 2^k points are still a (0, k, 2)-net.
+///
+/// Computed in the bit-reversed domain, where the scrambles need no reversal: with
+/// r = lk(reverse(index)) the shuffled index is reverse(r); component 0 is
+/// reverse(lk(reverse(r))) and component 1 reverse(lk(reverse(sobol₁(reverse(r))))), the
+/// inner part a table lookup. [`tests::sobol_owen_is_the_plain_construction`] checks it
+/// against the construction written out.
+#[inline]
+pub fn sobol_owen(index: u32, seed: u32, component: u32) -> u32 {
+    let r = lk_permutation(index.reverse_bits(), seed);
+    let (bits_reversed, salt) = if component == 0 {
+        (r.reverse_bits(), 0x9e37_79b9)
+    } else {
+        (dim1_reversed(r), 0x7f4a_7c15)
+    };
+    lk_permutation(bits_reversed, hash_u32(seed ^ salt)).reverse_bits()
+}
+
+/// Kensler's hash-based permutation of [0, l): element `i` under pattern `p`.
+#[inline]
+fn permute(mut i: u32, l: u32, p: u32) -> u32 {
+    let mut w = l.wrapping_sub(1);
+    w |= w >> 1;
+    w |= w >> 2;
+    w |= w >> 4;
+    w |= w >> 8;
+    w |= w >> 16;
+    loop {
+        i ^= p;
+        i = i.wrapping_mul(0xe170_893d);
+        i ^= p >> 16;
+        i ^= (i & w) >> 4;
+        i ^= p >> 8;
+        i = i.wrapping_mul(0x0929_eb3f);
+        i ^= p >> 23;
+        i ^= (i & w) >> 1;
+        i = i.wrapping_mul(1 | p >> 27);
+        i = i.wrapping_mul(0x6935_fa69);
+        i ^= (i & w) >> 11;
+        i = i.wrapping_mul(0x74dc_b303);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0x9e50_1cc3);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0xc860_a3df);
+        i &= w;
+        i ^= i >> 5;
+        if i < l {
+            break;
+        }
+    }
+    i.wrapping_add(p) % l
+}
+
+/// Kensler's hashed float in [0, 1).
+#[inline]
+fn rand_float(mut i: u32, p: u32) -> f32 {
+    i ^= p;
+    i ^= i >> 17;
+    i ^= i >> 10;
+    i = i.wrapping_mul(0xb365_34e5);
+    i ^= i >> 12;
+    i ^= i >> 21;
+    i = i.wrapping_mul(0x93fc_4795);
+    i ^= 0xdf6e_307f;
+    i ^= i >> 17;
+    i = i.wrapping_mul(1 | p >> 18);
+    to_unit(i)
+}
+
+/// Component `component` of point `s` of `n` correlated multi-jittered samples with
+/// pattern `p` (Kensler 2013, "Correlated Multi-Jittered Sampling", the version for any
+/// n): x jittered in an m × ⌈n/m⌉ grid, y in n strata.
+#[inline]
+fn cmj(s: u32, n: u32, p: u32, component: u32) -> f32 {
+    let m = ((n as f32).sqrt() as u32).max(1);
+    let rows = n.div_ceil(m);
+    let s = permute(s, n, p.wrapping_mul(0x5163_3e2d));
+    let v = if component == 0 {
+        let jy = rand_float(s, p.wrapping_mul(0x368c_c8b7));
+        (s as f32 + jy) / n as f32
+    } else {
+        let sx = permute(s % m, m, p.wrapping_mul(0x68bc_21eb));
+        let sy = permute(s / m, rows, p.wrapping_mul(0x02e5_be93));
+        let jx = rand_float(s, p.wrapping_mul(0x967a_889b));
+        (sx as f32 + (sy as f32 + jx) / rows as f32) / m as f32
+    };
+    v.min(ONE_MINUS_EPSILON)
+}
+
+/// The largest f32 below 1.
+pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// The fixed table of slots: which number is used for what at a path vertex.
 pub mod slot {
@@ -133,7 +462,7 @@ mod tests {
         let us = uniform_lanes(keys, 2, slot::JITTER_Y);
         for i in 0..8 {
             let k = SampleKey::new(9, xs[i], ys[i], 3);
-            assert_eq!(keys[i], k.0);
+            assert_eq!(keys[i], k.hash);
             assert_eq!(us[i].to_bits(), k.uniform(2, slot::JITTER_Y).to_bits());
         }
     }
@@ -150,5 +479,174 @@ mod tests {
         let se = (1.0 / 12.0 / n as f64).sqrt();
         assert!((mean - 0.5).abs() < 4.0 * se, "mean {mean}");
         assert!((var - 1.0 / 12.0).abs() < 0.002, "variance {var}");
+    }
+
+    /// The hash key and numbers of the renderer before samplers existed.
+    fn old_uniform(seed: u32, x: u32, y: u32, sample: u32, vertex: u32, slot: u32) -> f32 {
+        let h = hash_u32(hash_u32(seed).wrapping_add(x));
+        let h = hash_u32(h.wrapping_add(y));
+        let key = hash_u32(h.wrapping_add(sample));
+        let dim = hash_u32(hash_u32(vertex).wrapping_add(slot));
+        to_unit(hash_u32(key ^ dim))
+    }
+
+    #[test]
+    fn independent_sampler_is_the_old_one_bit_for_bit() {
+        let sampler = Sampler::new(SamplerKind::Independent, 5, 64);
+        for (x, y, s, v, sl) in [(0, 0, 0, 0, 0), (3, 9, 17, 2, 41), (799, 449, 49, 7, 4)] {
+            let old = old_uniform(5, x, y, s, v, sl);
+            assert_eq!(sampler.key(x, y, s).uniform(v, sl).to_bits(), old.to_bits());
+            assert_eq!(
+                SampleKey::new(5, x, y, s).uniform(v, sl).to_bits(),
+                old.to_bits()
+            );
+        }
+    }
+
+    #[test]
+    fn every_sampler_stays_in_the_unit_interval() {
+        for kind in SamplerKind::ALL {
+            for spp in [1, 3, 16, 100] {
+                let sampler = Sampler::new(kind, 9, spp);
+                for s in 0..spp {
+                    let key = sampler.key(4, 2, s);
+                    for sl in [0, 1, 2, 3, 4, slot::light(0, 9, 2), slot::light(2, 3, 0)] {
+                        let u = key.uniform(1, sl);
+                        assert!((0.0..1.0).contains(&u), "{kind:?} {spp} {s} {sl}: {u}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn light_slots_map_to_pairs_and_draws() {
+        let d = |l, k, c| Dimension::of(slot::light(l, k, c));
+        assert_eq!((d(0, 0, 0).component, d(0, 0, 0).draw), (0, 0));
+        assert_eq!((d(1, 7, 2).component, d(1, 7, 2).draw), (1, 7));
+        assert_eq!(d(1, 7, 1).pair, d(1, 0, 2).pair);
+        assert_ne!(d(1, 7, 1).pair, d(1, 7, 0).pair);
+        assert_ne!(d(1, 7, 1).pair, d(2, 7, 1).pair);
+        assert_eq!(d(3, 9, 1).draws, MAX_LIGHT_SAMPLES);
+        assert_eq!(Dimension::of(slot::JITTER_Y).pair, slot::JITTER_X);
+        assert_eq!(Dimension::of(slot::SCATTER_CHOICE).component, 0);
+    }
+
+    /// The points of the jitter pair of one pixel, as grid cells of a `cols` × `rows` grid.
+    fn cells(kind: SamplerKind, spp: u32, cols: u32, rows: u32) -> Vec<(u32, u32)> {
+        let sampler = Sampler::new(kind, 3, spp);
+        (0..spp)
+            .map(|s| {
+                let k = sampler.key(10, 20, s);
+                let x = k.uniform(0, slot::JITTER_X);
+                let y = k.uniform(0, slot::JITTER_Y);
+                ((x * cols as f32) as u32, (y * rows as f32) as u32)
+            })
+            .collect()
+    }
+
+    fn all_distinct(mut v: Vec<(u32, u32)>) -> bool {
+        let n = v.len();
+        v.sort();
+        v.dedup();
+        v.len() == n
+    }
+
+    #[test]
+    fn sobol_prefixes_are_nets() {
+        // The first 2^k points of every pair: one point in each elementary interval of
+        // area 2^-k (a (0, k, 2)-net), and so on for every k.
+        for k in 0..=6 {
+            let n = 1u32 << k;
+            for j in 0..=k {
+                let (cols, rows) = (1 << j, 1 << (k - j));
+                assert!(
+                    all_distinct(cells(SamplerKind::Sobol, n, cols, rows)),
+                    "{k} {j}"
+                );
+            }
+        }
+        // Light draws: spp 8 × 10 draws = 80 points; the first 64 are a net.
+        let sampler = Sampler::new(SamplerKind::Sobol, 1, 8);
+        let mut pts = Vec::new();
+        for s in 0..8 {
+            for k in 0..MAX_LIGHT_SAMPLES {
+                let key = sampler.key(0, 0, s);
+                let u = key.uniform(0, slot::light(0, k, 1));
+                let v = key.uniform(0, slot::light(0, k, 2));
+                pts.push((s * MAX_LIGHT_SAMPLES + k, u, v));
+            }
+        }
+        let first: Vec<(u32, u32)> = pts
+            .iter()
+            .filter(|p| p.0 < 64)
+            .map(|p| ((p.1 * 8.0) as u32, (p.2 * 8.0) as u32))
+            .collect();
+        assert!(all_distinct(first));
+    }
+
+    #[test]
+    fn stratified_fills_its_strata() {
+        for n in [1, 2, 7, 10, 16, 25] {
+            // Component 0 (x here): one point per 1/n stratum.
+            assert!(all_distinct(cells(SamplerKind::Stratified, n, n, 1)), "{n}");
+            // Component 1 (y): one point per cell of the m × ⌈n/m⌉ fine grid.
+            let m = (n as f32).sqrt() as u32;
+            let fine = m * n.div_ceil(m);
+            assert!(
+                all_distinct(cells(SamplerKind::Stratified, n, 1, fine)),
+                "{n}"
+            );
+            // x, y: one point per coarse cell of an m × m grid when n = m².
+            if m * m == n {
+                assert!(all_distinct(cells(SamplerKind::Stratified, n, m, m)), "{n}");
+            }
+        }
+    }
+
+    #[test]
+    fn structured_samplers_depend_on_pixel_and_seed() {
+        for kind in [SamplerKind::Stratified, SamplerKind::Sobol] {
+            let u = |seed, x| Sampler::new(kind, seed, 4).key(x, 0, 1).uniform(0, 0);
+            assert_ne!(u(0, 0), u(0, 1));
+            assert_ne!(u(0, 0), u(1, 0));
+        }
+    }
+
+    /// The second Sobol dimension by its direction numbers.
+    fn sobol_dim1(mut index: u32) -> u32 {
+        let (mut r, mut v) = (0u32, 1u32 << 31);
+        while index != 0 {
+            if index & 1 != 0 {
+                r ^= v;
+            }
+            index >>= 1;
+            v ^= v >> 1;
+        }
+        r
+    }
+
+    #[test]
+    fn sobol_owen_is_the_plain_construction() {
+        // Burley's listing: shuffle the index, take the Sobol point, scramble each axis.
+        let plain = |index: u32, seed: u32, component: u32| {
+            let i = nested_uniform_scramble(index, seed);
+            if component == 0 {
+                nested_uniform_scramble(i.reverse_bits(), hash_u32(seed ^ 0x9e37_79b9))
+            } else {
+                nested_uniform_scramble(sobol_dim1(i), hash_u32(seed ^ 0x7f4a_7c15))
+            }
+        };
+        // The first points of dimension 1: 0, 1/2, 3/4, 1/4.
+        assert_eq!(sobol_dim1(1), 1 << 31);
+        assert_eq!(sobol_dim1(2), 3 << 30);
+        assert_eq!(sobol_dim1(3), 1 << 30);
+        for seed in [0, 1, 0xdead_beef, u32::MAX] {
+            for i in (0..2048).chain([u32::MAX, 0x8000_0001, 0x1234_5678]) {
+                for c in [0, 1] {
+                    assert_eq!(sobol_owen(i, seed, c), plain(i, seed, c), "{i} {seed} {c}");
+                }
+            }
+        }
     }
 }

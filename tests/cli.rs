@@ -997,3 +997,99 @@ fn output_files_get_ordinary_permissions() {
         0o640
     );
 }
+
+#[test]
+fn tiny_exr_render_is_the_linear_film() {
+    // The EXR holds what the renderer computed, bit for bit: compare with the same render
+    // through the library.
+    let (dir, run) = Case::new(&[
+        "spheres",
+        "--width",
+        "8",
+        "--spp",
+        "2",
+        "--sampler",
+        "sobol",
+        "-o",
+        "out.exr",
+    ])
+    .run();
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert_eq!(file_names(dir.path()), ["out.exr"]);
+    let film = raytracer::output::read_exr(&dir.path().join("out.exr")).unwrap();
+    let o = raytracer::scene::Overrides {
+        width: Some(8),
+        spp: Some(2),
+        max_depth: None,
+    };
+    let mut scene = raytracer::scene::Scene::load("spheres", o).unwrap();
+    let accel = raytracer::accel::Accel::build(&mut scene, raytracer::accel::AccelKind::Bvh);
+    let settings = raytracer::render::RenderSettings {
+        sampler: raytracer::rng::SamplerKind::Sobol,
+        ..raytracer::render::RenderSettings::new(0)
+    };
+    let expected = raytracer::render::render(&scene, &accel, &settings, &|| {})
+        .unwrap()
+        .film;
+    let bits = |f: &raytracer::render::Film| -> Vec<u32> {
+        f.pixels
+            .iter()
+            .flat_map(|p| p.to_array().map(f32::to_bits))
+            .collect()
+    };
+    assert_eq!((film.width, film.height), (8, 4));
+    assert_eq!(bits(&film), bits(&expected));
+}
+
+#[test]
+fn bad_sampler_is_a_clap_error() {
+    Case::spheres(&["--sampler", "halton"]).fails_in_clap("--sampler");
+}
+
+#[test]
+fn tiny_sweep_writes_csv_chart_and_summary() {
+    let (dir, run) = Case::new(&[
+        "sweep",
+        "spheres",
+        "--width",
+        "8",
+        "--spp-max",
+        "4",
+        "--runs",
+        "1",
+        "--reference-spp",
+        "8",
+        "--reference",
+        "ref.exr",
+        "--out",
+        "sweep",
+    ])
+    .run();
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    let names = file_names(dir.path());
+    for f in [
+        "ref.exr",
+        "ref.json",
+        "sweep",
+        "sweep/spheres.csv",
+        "sweep/spheres.svg",
+        "sweep/spheres.txt",
+    ] {
+        assert!(names.iter().any(|n| n == f), "{f} missing from {names:?}");
+    }
+    let csv = std::fs::read_to_string(dir.path().join("sweep/spheres.csv")).unwrap();
+    // A comment, the header, then 3 samplers × spp 1, 2, 4.
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 2 + 9, "{csv}");
+    assert!(lines[1].starts_with("sampler,packet_width,spp,seconds_median"));
+    assert!(lines[2].starts_with("independent,1,1,"), "{}", lines[2]);
+    let svg = std::fs::read_to_string(dir.path().join("sweep/spheres.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    assert!(svg.contains("sobol") && svg.contains("stratified"));
+}
+
+#[test]
+fn reference_must_be_exr() {
+    Case::new(&["reference", "spheres", "--width", "8", "-o", "out.png"])
+        .fails_with(&["out.png", ".exr"]);
+}

@@ -13,6 +13,7 @@ use raytracer::integrator::RayCounts;
 use raytracer::integrator::T_MIN;
 use raytracer::lanes::Lane;
 use raytracer::render::{render, RenderSettings};
+use raytracer::rng::SamplerKind;
 use raytracer::scene::builtin::SCENES;
 use raytracer::scene::Scene;
 use std::sync::OnceLock;
@@ -34,6 +35,7 @@ fn render_counts(
         seed: 7,
         packet_width: width,
         specialize,
+        ..RenderSettings::default()
     };
     let rendered = pool
         .install(|| render(scene, accel, &settings, &|| {}))
@@ -43,6 +45,29 @@ fn render_counts(
 
 fn render_bits(scene: &Scene, accel: &Accel, width: u32, threads: usize) -> Vec<[u32; 3]> {
     render_counts(scene, accel, width, threads, true).0
+}
+
+/// The structured samplers, whose numbers the packet tracer draws lane by lane, give the
+/// same bits at every width too.
+#[test]
+fn every_sampler_same_bits_at_every_width() {
+    for sampler in [SamplerKind::Stratified, SamplerKind::Sobol] {
+        for name in ["cornell-area-light", "mixed", "bunny"] {
+            let mut scene = builtin(name, 21, 3);
+            let accel = Accel::build(&mut scene, AccelKind::Bvh);
+            let film = |packet_width| {
+                let settings = RenderSettings {
+                    packet_width,
+                    sampler,
+                    ..RenderSettings::new(3)
+                };
+                bits(&render(&scene, &accel, &settings, &|| {}).unwrap().film)
+            };
+            let reference = film(1);
+            assert!(film(4) == reference, "{name}, {sampler:?}: 4-wide");
+            assert!(film(8) == reference, "{name}, {sampler:?}: 8-wide");
+        }
+    }
 }
 
 /// Specialisation skips work, never changes a bit: every built-in scene with and

@@ -58,7 +58,7 @@ fn phong_on_a_plane_under_a_point_light() {
         let d = (p - eye).normalize();
         let got = tracer.trace(
             Ray::new(eye.as_vec3(), d.as_vec3()),
-            SampleKey(1),
+            SampleKey::from_hash(1),
             &mut counts,
         );
 
@@ -90,7 +90,7 @@ fn light_behind_an_open_quad_still_gives_the_seed_specular() {
     let d = (p - eye).normalize();
     let got = tracer.trace(
         Ray::new(eye.as_vec3(), d.as_vec3()),
-        SampleKey(1),
+        SampleKey::from_hash(1),
         &mut RayCounts::default(),
     );
     let n = DVec3::Y;
@@ -148,7 +148,7 @@ material = "ceiling"
         let eye = DVec3::new(0.0, 1.0, 0.0);
         let got = tracer.trace(
             Ray::new(eye.as_vec3(), d.as_vec3()),
-            SampleKey(3),
+            SampleKey::from_hash(3),
             &mut RayCounts::default(),
         );
         let f = schlick(a.cos() as f32, 0.1) as f64;
@@ -166,7 +166,7 @@ material = "ceiling"
     let d = DVec3::new(0.6, -0.8, 0.0);
     let got = tracer.trace(
         Ray::new(Vec3::Y, d.as_vec3()),
-        SampleKey(3),
+        SampleKey::from_hash(3),
         &mut RayCounts::default(),
     );
     let f = schlick(0.8, 0.1) as f64;
@@ -201,7 +201,7 @@ material = "glass"
         // keys until both interfaces refract (reflection is checked below).
         let mut checked = false;
         for k in 0..64u32 {
-            let key = SampleKey(k);
+            let key = SampleKey::from_hash(k);
             let hit = tracer
                 .closest_hit(&ray, &mut RayCounts::default())
                 .expect("hits the sphere");
@@ -229,7 +229,8 @@ material = "glass"
             // The chord inside has length 2 cos θt.
             let chord = (s2.point.point - s1.point.point).length() as f64;
             assert!((chord - 2.0 * theta_t.cos()).abs() < 1e-5, "chord {chord}");
-            let Some((_, d2)) = scatter(&glass, &inner, &s2, SampleKey(k + 1000), 1) else {
+            let Some((_, d2)) = scatter(&glass, &inner, &s2, SampleKey::from_hash(k + 1000), 1)
+            else {
                 unreachable!()
             };
             let reflect2 = (inner.dir - s2.normal * (2.0 * inner.dir.dot(s2.normal))).normalize();
@@ -281,7 +282,7 @@ material = "metal"
     );
     let (mut black, mut lit) = (0, 0);
     for k in 0..200 {
-        let c = tracer.trace(ray, SampleKey(k), &mut RayCounts::default());
+        let c = tracer.trace(ray, SampleKey::from_hash(k), &mut RayCounts::default());
         if c == Vec3::ZERO {
             black += 1;
         } else {

@@ -402,7 +402,14 @@ material = "ball"
             };
             let eye = offset + Vec3::new(0.0, 3.0, 6.0) * scale;
             let view = Ray::new(eye, (point.point - eye).normalize());
-            tracer.phong(floor, &view, &s, SampleKey(0), 0, &mut RayCounts::default())
+            tracer.phong(
+                floor,
+                &view,
+                &s,
+                SampleKey::from_hash(0),
+                0,
+                &mut RayCounts::default(),
+            )
         };
         for r in [0.01f32, 0.03, 0.1, 0.3, 0.5] {
             for (dx, dz) in [(1.0, 0.0), (0.0, 1.0), (-0.6, 0.8), (-0.8, -0.6)] {

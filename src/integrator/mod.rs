@@ -16,7 +16,7 @@ use crate::geometry::spawn::{planar_point, spawn_ray, sphere_point, ErrorPoint};
 use crate::geometry::{Hit, PrimKind, Ray};
 use crate::lanes::{Lane, Mask, V3};
 use crate::material::{random_unit_vector, reflect, refract, schlick, Material, Phong};
-use crate::rng::{slot, SampleKey};
+use crate::rng::{slot, SampleKey, Sampler};
 use crate::scene::{LightShape, Scene};
 use glam::Vec3;
 
@@ -103,7 +103,8 @@ pub struct Surface {
 pub struct Tracer<'a> {
     pub scene: &'a Scene,
     pub accel: &'a Accel,
-    pub seed: u32,
+    /// Where every random number comes from (`--sampler`, `--seed`).
+    pub sampler: Sampler,
     /// Skip work that cannot change the image (`design.md` §6; `--no-specialize` turns
     /// it off): shadow rays of light samples that add nothing lit or not, and packets
     /// that miss the scene's bounds. The image is the same bits either way.
@@ -111,18 +112,23 @@ pub struct Tracer<'a> {
 }
 
 impl<'a> Tracer<'a> {
+    /// A tracer with the independent sampler (the seed's random numbers).
     pub fn new(scene: &'a Scene, accel: &'a Accel, seed: u32) -> Self {
+        Self::with_sampler(scene, accel, Sampler::independent(seed))
+    }
+
+    pub fn with_sampler(scene: &'a Scene, accel: &'a Accel, sampler: Sampler) -> Self {
         Self {
             scene,
             accel,
-            seed,
+            sampler,
             specialize: true,
         }
     }
 
     /// The colour of camera sample `sample` of pixel (x, y).
     pub fn sample(&self, x: u32, y: u32, sample: u32, counts: &mut RayCounts) -> Vec3 {
-        let key = SampleKey::new(self.seed, x, y, sample);
+        let key = self.sampler.key(x, y, sample);
         let jx = key.uniform(0, slot::JITTER_X);
         let jy = key.uniform(0, slot::JITTER_Y);
         let ray = self.scene.camera.ray(x, y, jx, jy);
@@ -550,7 +556,7 @@ mod tests {
         // Schlick at normal incidence for 1/1.5 is 0.04: any choice above it refracts.
         let mut refracted = 0;
         for i in 0..100 {
-            let d = dielectric_direction(&ray, &s, 1.5, SampleKey(i), 0);
+            let d = dielectric_direction(&ray, &s, 1.5, SampleKey::from_hash(i), 0);
             if d == -Vec3::Z {
                 refracted += 1;
             } else {

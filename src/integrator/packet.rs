@@ -16,7 +16,7 @@ use crate::geometry::Ray;
 use crate::lanes::Lane;
 use crate::lanes::V3;
 use crate::material::{reflect, schlick, Material, Phong};
-use crate::rng::{keys_lanes, slot, uniform_lanes, SampleKey, MAX_LIGHT_SAMPLES};
+use crate::rng::{keys_lanes, slot, uniform_lanes, SampleKey, SamplerKind, MAX_LIGHT_SAMPLES};
 use glam::Vec3;
 
 /// The pixels a packet of `width` lanes covers: 4x2 for 8 lanes, 2x2 for 4, 1x1 for 1.
@@ -61,9 +61,26 @@ impl Tracer<'_> {
         let (fw, _) = footprint(L::WIDTH);
         let xs: [u32; MAX_WIDTH] = std::array::from_fn(|k| x0 + k as u32 % fw);
         let ys: [u32; MAX_WIDTH] = std::array::from_fn(|k| y0 + k as u32 / fw);
-        let keys = keys_lanes(self.seed, xs, ys, sample);
-        let jx = uniform_lanes(keys, 0, slot::JITTER_X);
-        let jy = uniform_lanes(keys, 0, slot::JITTER_Y);
+        // The independent sampler lane-wise; the structured ones lane by lane.
+        let mut keys = [SampleKey::from_hash(0); MAX_WIDTH];
+        let (jx, jy) = if self.sampler.kind == SamplerKind::Independent {
+            let hashes = keys_lanes(self.sampler.seed, xs, ys, sample);
+            for (key, &h) in keys.iter_mut().zip(&hashes) {
+                *key = SampleKey::from_hash(h);
+            }
+            (
+                uniform_lanes(hashes, 0, slot::JITTER_X),
+                uniform_lanes(hashes, 0, slot::JITTER_Y),
+            )
+        } else {
+            for (k, key) in keys.iter_mut().enumerate().take(L::WIDTH) {
+                *key = self.sampler.key(xs[k], ys[k], sample);
+            }
+            (
+                keys.map(|key| key.uniform(0, slot::JITTER_X)),
+                keys.map(|key| key.uniform(0, slot::JITTER_Y)),
+            )
+        };
         let lane = |v: &[f32; MAX_WIDTH]| L::from_fn(|k| v[k]);
         let dir = self.scene.camera.directions(
             lane(&xs.map(|x| x as f32)),
@@ -75,15 +92,7 @@ impl Tracer<'_> {
         let packet = RayPacket::from_lanes(origin, dir, active);
         counts.camera += active.count_ones() as u64;
         counts.camera_packets.record(active);
-        self.shade_packet::<L>(
-            packet,
-            active,
-            &keys.map(SampleKey),
-            0,
-            self.scene.max_depth,
-            true,
-            counts,
-        )
+        self.shade_packet::<L>(packet, active, &keys, 0, self.scene.max_depth, true, counts)
     }
 
     /// The colours the lanes' rays see at path vertex `vertex`. With `camera`, the

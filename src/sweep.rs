@@ -1,0 +1,629 @@
+//! Error against run time (`design.md` §8): high-spp reference images, and sweeps that
+//! render a scene at spp = 1, 2, 4, …, for each sampler and packet width, time every
+//! render (median of several runs), measure its error against the reference, and write a
+//! CSV and a log-log SVG chart of error against seconds.
+
+use crate::accel::{Accel, AccelKind};
+use crate::metrics::{self, Errors};
+use crate::output;
+use crate::render::{self, Film, RenderSettings};
+use crate::rng::SamplerKind;
+use crate::scene::{Overrides, Scene};
+use anyhow::{bail, Context};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The seeds of the two halves of a reference; no sweep uses them, so a reference never
+/// shares numbers with the renders measured against it.
+pub const REFERENCE_SEEDS: [u32; 2] = [0x5eed_0001, 0x5eed_0002];
+
+/// Packet widths the renderer implements; the sweep skips the others with a note.
+pub fn packet_width_supported(width: u32) -> bool {
+    matches!(width, 1 | 4 | 8)
+}
+
+/// What a reference image is and how noisy it is, stored beside it as JSON.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct ReferenceInfo {
+    pub scene: String,
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel of the whole reference (two halves of spp / 2).
+    pub spp: u32,
+    pub sampler: String,
+    pub seeds: [u32; 2],
+    /// The reference's own MSE, estimated as MSE(half A, half B) / 4: the halves are
+    /// independent and unbiased, so E|A − B|² = 2σ²(half) and the mean has σ²(half) / 2.
+    pub estimated_mse: f64,
+    pub seconds: f64,
+}
+
+/// The default path of a reference: `dir/<scene>-w<width>-<spp>spp.exr`.
+pub fn reference_path(dir: &Path, scene: &str, width: u32, spp: u32) -> PathBuf {
+    dir.join(format!("{}-w{width}-{spp}spp.exr", file_stem(scene)))
+}
+
+fn file_stem(scene: &str) -> String {
+    Path::new(scene)
+        .file_stem()
+        .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned())
+}
+
+fn info_path(exr: &Path) -> PathBuf {
+    exr.with_extension("json")
+}
+
+/// Load a scene at a width and build its BVH.
+pub fn prepare(scene: &str, width: Option<u32>) -> anyhow::Result<(Scene, Accel)> {
+    let overrides = Overrides {
+        width,
+        spp: None,
+        max_depth: None,
+    };
+    let mut scene = Scene::load(scene, overrides)?;
+    let accel = Accel::build(&mut scene, AccelKind::Bvh);
+    Ok((scene, accel))
+}
+
+/// Render with a sampler, seed and spp on the current rayon pool; returns the film and the
+/// render time in seconds.
+pub fn render_timed(
+    scene: &mut Scene,
+    accel: &Accel,
+    sampler: SamplerKind,
+    seed: u32,
+    spp: u32,
+    packet_width: u32,
+) -> anyhow::Result<(Film, f64, u64)> {
+    scene.spp = spp;
+    let settings = RenderSettings {
+        seed,
+        sampler,
+        packet_width,
+        ..RenderSettings::default()
+    };
+    let start = Instant::now();
+    let r = render::render(scene, accel, &settings, &|| {})?;
+    Ok((r.film, start.elapsed().as_secs_f64(), r.counts.total()))
+}
+
+/// Render a reference: the mean of two halves of `spp / 2` samples with different seeds,
+/// written as EXR with a JSON note of its estimated own error.
+pub fn make_reference(
+    scene_arg: &str,
+    width: Option<u32>,
+    spp: u32,
+    sampler: SamplerKind,
+    path: &Path,
+) -> anyhow::Result<ReferenceInfo> {
+    output::check_writable(path)?;
+    let (mut scene, accel) = prepare(scene_arg, width)?;
+    let half = (spp / 2).max(1);
+    let start = Instant::now();
+    let (a, _, _) = render_timed(&mut scene, &accel, sampler, REFERENCE_SEEDS[0], half, 8)?;
+    let (b, _, _) = render_timed(&mut scene, &accel, sampler, REFERENCE_SEEDS[1], half, 8)?;
+    let seconds = start.elapsed().as_secs_f64();
+    let estimated_mse = metrics::mse(&a.pixels, &b.pixels) / 4.0;
+    let mean = Film {
+        width: a.width,
+        height: a.height,
+        pixels: a
+            .pixels
+            .iter()
+            .zip(&b.pixels)
+            .map(|(x, y)| (*x + *y) * 0.5)
+            .collect(),
+    };
+    output::write_image(&mean, path)?;
+    let info = ReferenceInfo {
+        scene: scene.name.clone(),
+        width: mean.width,
+        height: mean.height,
+        spp: 2 * half,
+        sampler: sampler.name().into(),
+        seeds: REFERENCE_SEEDS,
+        estimated_mse,
+        seconds,
+    };
+    let json = serde_json::to_string_pretty(&info)?;
+    output::write_atomically(&info_path(path), |out| {
+        use std::io::Write;
+        writeln!(out, "{json}")
+    })?;
+    Ok(info)
+}
+
+/// Read a reference and its JSON note.
+pub fn load_reference(path: &Path) -> anyhow::Result<(Film, ReferenceInfo)> {
+    let film = output::read_exr(path)?;
+    let info_file = info_path(path);
+    let text = std::fs::read_to_string(&info_file)
+        .with_context(|| format!("cannot read {}", info_file.display()))?;
+    let info: ReferenceInfo = serde_json::from_str(&text)
+        .with_context(|| format!("{} is not a reference note", info_file.display()))?;
+    Ok((film, info))
+}
+
+/// One point of a sweep.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Point {
+    pub sampler: SamplerKind,
+    pub packet_width: u32,
+    pub spp: u32,
+    /// Median, fastest and slowest of the runs (render only: no load, build or write).
+    pub seconds: f64,
+    pub seconds_min: f64,
+    pub seconds_max: f64,
+    pub rays: u64,
+    pub errors: Errors,
+}
+
+/// What to sweep.
+#[derive(Debug, Clone)]
+pub struct SweepPlan {
+    pub spp_max: u32,
+    pub runs: u32,
+    pub samplers: Vec<SamplerKind>,
+    pub packet_widths: Vec<u32>,
+    pub seed: u32,
+}
+
+/// spp = 1, 2, 4, …, up to `max` (and `max` itself if it is not a power of two).
+pub fn spp_steps(max: u32) -> Vec<u32> {
+    let mut v: Vec<u32> = std::iter::successors(Some(1u32), |&s| s.checked_mul(2))
+        .take_while(|&s| s <= max)
+        .collect();
+    if v.last() != Some(&max) {
+        v.push(max);
+    }
+    v
+}
+
+/// Run a sweep against a reference film. `progress` receives one line per point.
+pub fn run_sweep(
+    scene: &mut Scene,
+    accel: &Accel,
+    reference: &Film,
+    plan: &SweepPlan,
+    progress: &mut dyn FnMut(&Point),
+) -> anyhow::Result<Vec<Point>> {
+    if (scene.camera.width, scene.camera.height) != (reference.width, reference.height) {
+        bail!(
+            "the reference is {}x{} but the sweep renders {}x{}",
+            reference.width,
+            reference.height,
+            scene.camera.width,
+            scene.camera.height
+        );
+    }
+    // One untimed render first: page faults and cold caches stay out of the first point.
+    render_timed(scene, accel, SamplerKind::Independent, plan.seed, 1, 1)?;
+    let mut points = Vec::new();
+    for &packet_width in &plan.packet_widths {
+        for spp in spp_steps(plan.spp_max) {
+            // Runs interleave the samplers (run 1 of each, then run 2 of each, …) so a
+            // change of load on a shared machine falls on every sampler alike.
+            let mut times = vec![Vec::new(); plan.samplers.len()];
+            let mut firsts: Vec<Option<(Film, u64)>> = vec![None; plan.samplers.len()];
+            for _ in 0..plan.runs.max(1) {
+                for (i, &sampler) in plan.samplers.iter().enumerate() {
+                    let (film, t, rays) =
+                        render_timed(scene, accel, sampler, plan.seed, spp, packet_width)?;
+                    times[i].push(t);
+                    match &firsts[i] {
+                        None => firsts[i] = Some((film, rays)),
+                        Some((f, _)) => debug_assert_eq!(f, &film, "renders are deterministic"),
+                    }
+                }
+            }
+            for (i, &sampler) in plan.samplers.iter().enumerate() {
+                let times = &mut times[i];
+                times.sort_by(f64::total_cmp);
+                let (film, rays) = firsts[i].take().expect("at least one run");
+                let point = Point {
+                    sampler,
+                    packet_width,
+                    spp,
+                    seconds: median(times),
+                    seconds_min: times[0],
+                    seconds_max: times[times.len() - 1],
+                    rays,
+                    errors: metrics::errors(&film, reference),
+                };
+                progress(&point);
+                points.push(point);
+            }
+        }
+    }
+    // Series by series in the CSV: packet width, sampler (in the plan's order), spp.
+    let order = |k: SamplerKind| plan.samplers.iter().position(|&s| s == k);
+    points.sort_by_key(|p| (p.packet_width, order(p.sampler), p.spp));
+    Ok(points)
+}
+
+fn median(sorted: &[f64]) -> f64 {
+    let n = sorted.len();
+    if n % 2 == 1 {
+        sorted[n / 2]
+    } else {
+        0.5 * (sorted[n / 2 - 1] + sorted[n / 2])
+    }
+}
+
+/// The CSV of a sweep.
+pub fn csv(scene: &Scene, reference: &ReferenceInfo, threads: usize, points: &[Point]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# scene {} {}x{}, reference {} spp {} (estimated own MSE {:.3e}), {} threads, render seconds only",
+        scene.name,
+        scene.camera.width,
+        scene.camera.height,
+        reference.spp,
+        reference.sampler,
+        reference.estimated_mse,
+        threads
+    );
+    s.push_str("sampler,packet_width,spp,seconds_median,seconds_min,seconds_max,rays,mse,rmse,rel_mse,psnr_db\n");
+    for p in points {
+        let e = p.errors;
+        let _ = writeln!(
+            s,
+            "{},{},{},{:.6},{:.6},{:.6},{},{:.6e},{:.6e},{:.6e},{:.3}",
+            p.sampler.name(),
+            p.packet_width,
+            p.spp,
+            p.seconds,
+            p.seconds_min,
+            p.seconds_max,
+            p.rays,
+            e.mse,
+            e.rmse,
+            e.rel_mse,
+            e.psnr
+        );
+    }
+    s
+}
+
+/// Least-squares slope of ln y against ln x.
+pub fn log_log_slope(xy: &[(f64, f64)]) -> f64 {
+    let n = xy.len() as f64;
+    let (lx, ly): (Vec<f64>, Vec<f64>) = xy.iter().map(|&(x, y)| (x.ln(), y.ln())).unzip();
+    let mx = lx.iter().sum::<f64>() / n;
+    let my = ly.iter().sum::<f64>() / n;
+    let sxy: f64 = lx.iter().zip(&ly).map(|(x, y)| (x - mx) * (y - my)).sum();
+    let sxx: f64 = lx.iter().map(|x| (x - mx) * (x - mx)).sum();
+    sxy / sxx
+}
+
+/// ln y at ln x on the polyline through `xy` (sorted by x), or `None` outside its range.
+fn interpolate_log(xy: &[(f64, f64)], x: f64) -> Option<f64> {
+    let lx = x.ln();
+    xy.windows(2).find_map(|w| {
+        let (x0, y0) = (w[0].0.ln(), w[0].1.ln());
+        let (x1, y1) = (w[1].0.ln(), w[1].1.ln());
+        (x0 <= lx && lx <= x1 && x1 > x0).then(|| y0 + (y1 - y0) * (lx - x0) / (x1 - x0))
+    })
+}
+
+/// The summary a reader wants: per sampler the slope of MSE against spp, and against the
+/// independent sampler the MSE ratio at equal time and the time ratio at equal MSE.
+pub fn summary(points: &[Point]) -> String {
+    let mut s = String::new();
+    let widths: Vec<u32> = dedup(points.iter().map(|p| p.packet_width));
+    for w in widths {
+        let series = |k: SamplerKind| -> Vec<&Point> {
+            points
+                .iter()
+                .filter(|p| p.packet_width == w && p.sampler == k)
+                .collect()
+        };
+        let base = series(SamplerKind::Independent);
+        let time_mse = |v: &[&Point]| -> Vec<(f64, f64)> {
+            let mut xy: Vec<(f64, f64)> = v.iter().map(|p| (p.seconds, p.errors.mse)).collect();
+            xy.sort_by(|a, b| a.0.total_cmp(&b.0));
+            xy
+        };
+        let base_tm = time_mse(&base);
+        let mut base_mt: Vec<(f64, f64)> = base_tm.iter().map(|&(t, m)| (m, t)).collect();
+        base_mt.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for k in dedup(points.iter().map(|p| p.sampler)) {
+            let v = series(k);
+            if v.is_empty() {
+                continue;
+            }
+            let slope = log_log_slope(
+                &v.iter()
+                    .map(|p| (p.spp as f64, p.errors.mse))
+                    .collect::<Vec<_>>(),
+            );
+            let _ = write!(s, "width {w} {:<11} MSE ∝ spp^{slope:.2}", k.name());
+            if k != SamplerKind::Independent && !base.is_empty() {
+                // At each of this sampler's points: how much lower its MSE is than the
+                // independent sampler's at the same time, and how much less time it takes
+                // for the same MSE (where the independent curve covers that time / MSE).
+                let mse_gain: Vec<f64> = v
+                    .iter()
+                    .filter_map(|p| {
+                        interpolate_log(&base_tm, p.seconds).map(|l| l.exp() / p.errors.mse)
+                    })
+                    .collect();
+                let time_gain: Vec<f64> = v
+                    .iter()
+                    .filter_map(|p| {
+                        interpolate_log(&base_mt, p.errors.mse).map(|l| l.exp() / p.seconds)
+                    })
+                    .collect();
+                let range = |g: &[f64]| {
+                    if g.is_empty() {
+                        "n/a".to_string()
+                    } else {
+                        let mut g = g.to_vec();
+                        g.sort_by(f64::total_cmp);
+                        format!(
+                            "median {:.2}x (range {:.2}–{:.2}, {} points)",
+                            median(&g),
+                            g[0],
+                            g[g.len() - 1],
+                            g.len()
+                        )
+                    }
+                };
+                let _ = write!(
+                    s,
+                    "; vs independent: MSE lower at equal time {}, time shorter at equal MSE {}",
+                    range(&mse_gain),
+                    range(&time_gain)
+                );
+            }
+            s.push('\n');
+        }
+    }
+    s
+}
+
+fn dedup<T: PartialEq + Copy>(it: impl Iterator<Item = T>) -> Vec<T> {
+    let mut v = Vec::new();
+    for x in it {
+        if !v.contains(&x) {
+            v.push(x);
+        }
+    }
+    v
+}
+
+// ---------------------------------------------------------------------------------------
+// The chart: hand-written SVG, two log-log panels (RMSE and relMSE against seconds).
+
+const COLOURS: [&str; 6] = [
+    "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b",
+];
+
+/// Powers of ten covering [lo, hi], and 2 and 5 times them when the range is short.
+fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    let (a, b) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    let mults: &[f64] = if b - a <= 2 { &[1.0, 2.0, 5.0] } else { &[1.0] };
+    let mut t = Vec::new();
+    for e in a..=b {
+        for m in mults {
+            let v = m * 10f64.powi(e);
+            if v >= lo * 0.999 && v <= hi * 1.001 {
+                t.push(v);
+            }
+        }
+    }
+    t
+}
+
+fn fmt_tick(v: f64) -> String {
+    if (1e-3..1e4).contains(&v) {
+        let s = format!("{v:.3}");
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        format!("{v:.0e}")
+    }
+}
+
+/// One panel at (x0, y0) of size w × h.
+#[allow(clippy::too_many_arguments)]
+fn panel(
+    svg: &mut String,
+    x0: f64,
+    y0: f64,
+    w: f64,
+    h: f64,
+    title: &str,
+    points: &[Point],
+    value: fn(&Point) -> f64,
+    reference_level: Option<f64>,
+) {
+    let xs: Vec<f64> = points.iter().map(|p| p.seconds).collect();
+    let ys: Vec<f64> = points
+        .iter()
+        .map(value)
+        .chain(reference_level)
+        .filter(|v| *v > 0.0)
+        .collect();
+    let bounds = |v: &[f64]| {
+        let lo = v.iter().cloned().fold(f64::INFINITY, f64::min);
+        let hi = v.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+        (lo / 1.3, hi * 1.3)
+    };
+    let (xlo, xhi) = bounds(&xs);
+    let (ylo, yhi) = bounds(&ys);
+    let (ml, mr, mt, mb) = (70.0, 15.0, 30.0, 45.0);
+    let (pw, ph) = (w - ml - mr, h - mt - mb);
+    let px = |x: f64| x0 + ml + pw * (x.ln() - xlo.ln()) / (xhi.ln() - xlo.ln());
+    let py = |y: f64| y0 + mt + ph * (1.0 - (y.ln() - ylo.ln()) / (yhi.ln() - ylo.ln()));
+    let _ = writeln!(
+        svg,
+        r##"<rect x="{:.1}" y="{:.1}" width="{pw:.1}" height="{ph:.1}" fill="none" stroke="#444"/>"##,
+        x0 + ml,
+        y0 + mt
+    );
+    let _ = writeln!(
+        svg,
+        r#"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="14">{title}</text>"#,
+        x0 + ml + pw / 2.0,
+        y0 + 18.0
+    );
+    for t in log_ticks(xlo, xhi) {
+        let x = px(t);
+        let _ = writeln!(
+            svg,
+            r##"<line x1="{x:.1}" y1="{:.1}" x2="{x:.1}" y2="{:.1}" stroke="#ddd"/><text x="{x:.1}" y="{:.1}" text-anchor="middle" font-size="11">{}</text>"##,
+            y0 + mt,
+            y0 + mt + ph,
+            y0 + mt + ph + 15.0,
+            fmt_tick(t)
+        );
+    }
+    for t in log_ticks(ylo, yhi) {
+        let y = py(t);
+        let _ = writeln!(
+            svg,
+            r##"<line x1="{:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#ddd"/><text x="{:.1}" y="{:.1}" text-anchor="end" font-size="11">{}</text>"##,
+            x0 + ml,
+            x0 + ml + pw,
+            x0 + ml - 5.0,
+            y + 4.0,
+            fmt_tick(t)
+        );
+    }
+    let _ = writeln!(
+        svg,
+        r#"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="12">render seconds (median)</text>"#,
+        x0 + ml + pw / 2.0,
+        y0 + h - 8.0
+    );
+    if let Some(r) = reference_level.filter(|r| *r > 0.0) {
+        let y = py(r);
+        let _ = writeln!(
+            svg,
+            r##"<line x1="{:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#888" stroke-dasharray="4 3"/><text x="{:.1}" y="{:.1}" text-anchor="end" font-size="10" fill="#666">reference's own error</text>"##,
+            x0 + ml,
+            x0 + ml + pw,
+            x0 + ml + pw - 4.0,
+            y - 4.0
+        );
+    }
+    let series = series_keys(points);
+    for (i, &(k, w)) in series.iter().enumerate() {
+        let colour = COLOURS[i % COLOURS.len()];
+        let pts: Vec<(f64, f64)> = points
+            .iter()
+            .filter(|p| p.sampler == k && p.packet_width == w)
+            .map(|p| (px(p.seconds), py(value(p))))
+            .collect();
+        let path: Vec<String> = pts.iter().map(|(x, y)| format!("{x:.1},{y:.1}")).collect();
+        let _ = writeln!(
+            svg,
+            r#"<polyline points="{}" fill="none" stroke="{colour}" stroke-width="1.8"/>"#,
+            path.join(" ")
+        );
+        for (x, y) in pts {
+            let _ = writeln!(
+                svg,
+                r#"<circle cx="{x:.1}" cy="{y:.1}" r="2.8" fill="{colour}"/>"#
+            );
+        }
+    }
+}
+
+fn series_keys(points: &[Point]) -> Vec<(SamplerKind, u32)> {
+    dedup(points.iter().map(|p| (p.sampler, p.packet_width)))
+}
+
+/// The SVG chart of a sweep: RMSE and relMSE against render seconds, log-log, one line
+/// per sampler and packet width, points at spp = 1, 2, 4, …
+pub fn chart(title: &str, points: &[Point], reference: &ReferenceInfo) -> String {
+    let (pw, ph) = (460.0, 340.0);
+    let (w, h) = (2.0 * pw, ph + 40.0);
+    let mut svg = String::new();
+    let _ = writeln!(
+        svg,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif">"#
+    );
+    let _ = writeln!(svg, r#"<rect width="100%" height="100%" fill="white"/>"#);
+    panel(
+        &mut svg,
+        0.0,
+        0.0,
+        pw,
+        ph,
+        &format!("{title}: RMSE against time"),
+        points,
+        |p| p.errors.rmse,
+        Some(reference.estimated_mse.sqrt()),
+    );
+    panel(
+        &mut svg,
+        pw,
+        0.0,
+        pw,
+        ph,
+        &format!("{title}: relMSE against time"),
+        points,
+        |p| p.errors.rel_mse,
+        None,
+    );
+    // Legend under the panels.
+    let mut x = 80.0;
+    let y = ph + 20.0;
+    let single_width = series_keys(points).iter().all(|&(_, w)| w == 1);
+    for (i, (k, pw)) in series_keys(points).into_iter().enumerate() {
+        let colour = COLOURS[i % COLOURS.len()];
+        let label = if single_width {
+            k.name().to_string()
+        } else {
+            format!("{} ×{pw}", k.name())
+        };
+        let _ = writeln!(
+            svg,
+            r#"<line x1="{x}" y1="{y}" x2="{}" y2="{y}" stroke="{colour}" stroke-width="3"/><text x="{}" y="{}" font-size="12">{label}</text>"#,
+            x + 22.0,
+            x + 28.0,
+            y + 4.0
+        );
+        x += 40.0 + 8.0 * label.len() as f64;
+    }
+    let _ = writeln!(
+        svg,
+        r##"<text x="{:.0}" y="{}" font-size="11" fill="#555">points: spp = 1, 2, 4, …; reference {} spp ({})</text>"##,
+        x + 20.0,
+        y + 4.0,
+        reference.spp,
+        reference.sampler
+    );
+    svg.push_str("</svg>\n");
+    svg
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn steps() {
+        assert_eq!(spp_steps(1), vec![1]);
+        assert_eq!(spp_steps(8), vec![1, 2, 4, 8]);
+        assert_eq!(spp_steps(10), vec![1, 2, 4, 8, 10]);
+    }
+
+    #[test]
+    fn slope_of_a_power_law() {
+        let xy: Vec<(f64, f64)> = (0..6)
+            .map(|i| (2f64.powi(i), 3.0 * 2f64.powi(i).powf(-1.5)))
+            .collect();
+        assert!((log_log_slope(&xy) + 1.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn interpolation_in_log_space() {
+        let xy = [(1.0, 1.0), (100.0, 0.01)];
+        assert!((interpolate_log(&xy, 10.0).unwrap().exp() - 0.1).abs() < 1e-12);
+        assert_eq!(interpolate_log(&xy, 1000.0), None);
+    }
+}
