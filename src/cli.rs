@@ -150,7 +150,7 @@ pub struct SweepArgs {
     /// Samplers to sweep.
     #[arg(long, value_enum, value_delimiter = ',', default_values_t = SamplerKind::ALL)]
     pub samplers: Vec<SamplerKind>,
-    /// Packet widths to sweep (widths the renderer does not implement yet are skipped).
+    /// Packet widths to sweep: 1, 4 or 8.
     #[arg(long, value_delimiter = ',', default_values_t = [1u32], value_parser = parse_packet_width)]
     pub packet_widths: Vec<u32>,
     /// Seed of the swept renders.
