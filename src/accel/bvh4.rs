@@ -128,7 +128,7 @@ pub fn slab<L: Lane>(
 }
 
 /// Primitive pools with at most this many primitives of a kind stay out of the tree and
-/// are tested in a plain loop before traversal: big analytic primitives (the bunny
+/// are tested in a plain loop beside the traversal: big analytic primitives (the bunny
 /// scene's ground sphere) would otherwise cover the whole tree.
 pub const LINEAR_LIMIT: usize = 16;
 
