@@ -9,13 +9,17 @@ use super::build::{self, BuildTree, NodeId, PrimRef};
 use super::linear::{self, PrimRay};
 use super::TraversalStats;
 use crate::geometry::spawn::gamma;
+use crate::geometry::sphere::{sphere_distance, SphereRay};
+use crate::geometry::triangle::WatertightRay;
 use crate::geometry::{Aabb, Hit, PrimKind, Ray};
 use crate::lanes::Lane;
+use crate::lanes::V3;
 use crate::scene::Scene;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 use std::mem::MaybeUninit;
+use std::ops::Range;
 
 /// A 4-wide node: child boxes SoA, then the four child codes. 128 bytes, two cache lines.
 #[repr(C, align(64))]
@@ -124,7 +128,7 @@ pub fn slab<L: Lane>(
 }
 
 /// Primitive pools with at most this many primitives of a kind stay out of the tree and
-/// are tested in a plain loop before traversal: big analytic primitives (the bunny
+/// are tested in a plain loop beside the traversal: big analytic primitives (the bunny
 /// scene's ground sphere) would otherwise cover the whole tree.
 pub const LINEAR_LIMIT: usize = 16;
 
@@ -141,6 +145,18 @@ pub struct Bvh4 {
     pub linear_kinds: [bool; 3],
     pub depth: u32,
     pub leaves: u32,
+    /// The sphere pool when it is beside the tree, four spheres a `Vec4` (the last group
+    /// padded with radius-0 spheres, masked off): one load per component instead of four
+    /// gathered through `load4`'s short-tail path on every ray (the bunny scene's three
+    /// spheres cost ~130 instructions a ray that way, callgrind).
+    linear_spheres: Vec<SphereLanes>,
+}
+
+/// Four spheres, structure-of-arrays in `Vec4` lanes.
+#[derive(Clone, Copy, Debug)]
+struct SphereLanes {
+    center: V3<Vec4>,
+    radius: Vec4,
 }
 
 /// Per-ray constants of the box test.
@@ -150,15 +166,31 @@ pub struct BoxRay {
     /// 1/d scaled by `NEAR_SCALE` and `FAR_SCALE`: the margins cost no multiply per node.
     pub(crate) inv_near: [Vec4; 3],
     pub(crate) inv_far: [Vec4; 3],
-    pub(crate) negative: [bool; 3],
+    /// Per axis, the row of `Node4` (seen as `[[f32; 4]; 8]`: min x, y, z, max x, y, z)
+    /// holding the near and the far planes: min for a positive direction, max for a
+    /// negative one (the sign bit, so −0 picks max like −x does). A row index instead of
+    /// a branch per axis and node.
+    pub(crate) near_row: [usize; 3],
+    pub(crate) far_row: [usize; 3],
 }
 
 impl BoxRay {
     #[inline]
     pub fn new(ray: &Ray) -> Self {
         let inv = Vec3::new(1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z);
+        Self::from_inv(ray, inv)
+    }
+
+    /// From the reciprocal direction `inv` = 1/d (computed by the caller).
+    #[inline(always)]
+    fn from_inv(ray: &Ray, inv: Vec3) -> Self {
         let near = inv * NEAR_SCALE;
         let far = inv * FAR_SCALE;
+        let negative = [
+            inv.x.is_sign_negative() as usize,
+            inv.y.is_sign_negative() as usize,
+            inv.z.is_sign_negative() as usize,
+        ];
         Self {
             origin: [
                 Vec4::splat(ray.origin.x),
@@ -171,12 +203,8 @@ impl BoxRay {
                 Vec4::splat(near.z),
             ],
             inv_far: [Vec4::splat(far.x), Vec4::splat(far.y), Vec4::splat(far.z)],
-            // The sign bit, so −0 picks the max plane as its near plane like −x does.
-            negative: [
-                inv.x.is_sign_negative(),
-                inv.y.is_sign_negative(),
-                inv.z.is_sign_negative(),
-            ],
+            near_row: [0, 1, 2].map(|a| a + 3 * negative[a]),
+            far_row: [0, 1, 2].map(|a| a + 3 - 3 * negative[a]),
         }
     }
 
@@ -187,19 +215,12 @@ impl BoxRay {
     /// when the first is NaN: that axis leaves the interval unconstrained.
     #[inline(always)]
     fn test(&self, n: &Node4, t_min: f32, t_max: f32) -> (Vec4, u32) {
-        let pick = |neg: bool, lo: &[f32; 4], hi: &[f32; 4]| {
-            if neg {
-                (Vec4::from(*hi), Vec4::from(*lo))
-            } else {
-                (Vec4::from(*lo), Vec4::from(*hi))
-            }
-        };
-        let (nx, fx) = pick(self.negative[0], &n.min_x, &n.max_x);
-        let (ny, fy) = pick(self.negative[1], &n.min_y, &n.max_y);
-        let (nz, fz) = pick(self.negative[2], &n.min_z, &n.max_z);
+        let rows: &[[f32; 4]; 8] = bytemuck::cast_ref(n);
+        // `& 7`: the rows are 0..6, and the mask lets the compiler drop the bounds checks.
+        let row = |r: usize| Vec4::from(rows[r & 7]);
         let (enter, hit) = slab(
-            [nx, ny, nz],
-            [fx, fy, fz],
+            self.near_row.map(row),
+            self.far_row.map(row),
             self.origin,
             self.inv_near,
             self.inv_far,
@@ -207,6 +228,214 @@ impl BoxRay {
             Vec4::splat(t_max),
         );
         (enter, hit.bitmask())
+    }
+}
+
+/// The per-ray constants of a scalar traversal: `PrimRay`'s and `BoxRay`'s values (the
+/// same IEEE quotients, so the same bits), with the triangle test's computed at the first
+/// triangle leaf: most camera rays of `bunny` miss the mesh's box, and the axis choice,
+/// its two divisions and the pool pointers they select cost ~100 instructions a ray
+/// (callgrind). 1/dx, 1/dy, 1/dz and 1/(d·d) are one vector divide.
+#[derive(Clone, Copy, Debug)]
+struct RayConsts {
+    ray: Ray,
+    sphere: SphereRay,
+    triangle: Option<WatertightRay>,
+}
+
+impl RayConsts {
+    #[inline(always)]
+    fn new(ray: &Ray) -> (RayConsts, BoxRay) {
+        let d = ray.dir;
+        let a = d.dot(d);
+        let q = Vec4::ONE / Vec4::new(d.x, d.y, d.z, a);
+        let sphere = SphereRay {
+            origin: ray.origin,
+            dir: d,
+            a,
+            inv_a: q.w,
+        };
+        let consts = RayConsts {
+            ray: *ray,
+            sphere,
+            triangle: None,
+        };
+        (consts, BoxRay::from_inv(ray, q.truncate()))
+    }
+
+    #[inline(always)]
+    fn from_prim(pray: &PrimRay) -> RayConsts {
+        RayConsts {
+            ray: pray.ray,
+            sphere: pray.sphere,
+            triangle: Some(pray.triangle),
+        }
+    }
+
+    #[inline(always)]
+    fn triangle(&mut self) -> &WatertightRay {
+        let ray = &self.ray;
+        self.triangle.get_or_insert_with(|| watertight_ray(ray))
+    }
+
+    #[inline(always)]
+    fn prim(&mut self) -> PrimRay {
+        PrimRay {
+            ray: self.ray,
+            sphere: self.sphere,
+            triangle: *self.triangle(),
+        }
+    }
+}
+
+/// `WatertightRay::new` with its three divisions in one vector divide.
+#[inline(never)]
+fn watertight_ray(ray: &Ray) -> WatertightRay {
+    let axes @ [kx, ky, kz] = WatertightRay::axes(ray.dir);
+    let d = ray.dir.to_array();
+    let o = ray.origin.to_array();
+    let q = Vec4::new(d[kx], d[ky], 1.0, 1.0) / Vec4::new(d[kz], d[kz], d[kz], 1.0);
+    WatertightRay {
+        axes,
+        origin: [o[kx], o[ky], o[kz]],
+        sx: q.x,
+        sy: q.y,
+        sz: q.z,
+    }
+}
+
+/// The closest hit so far of one scalar traversal, in plain fields (no `Option<Hit>`
+/// moved per candidate). No hit yet is `(t, id) = (+∞, u32::MAX)`, which every candidate
+/// beats (a candidate has t ≤ `t_max` and an id below `u32::MAX`: ids count primitives).
+#[derive(Clone, Copy, Debug)]
+struct Closest {
+    t_max: f32,
+    t: f32,
+    id: u32,
+    kind: PrimKind,
+    index: u32,
+}
+
+impl Closest {
+    #[inline(always)]
+    fn new(t_max: f32, best: &Option<Hit>) -> Self {
+        match best {
+            Some(h) => Closest {
+                t_max,
+                t: h.t,
+                id: h.id,
+                kind: h.kind,
+                index: h.index,
+            },
+            None => Closest {
+                t_max,
+                t: f32::INFINITY,
+                id: u32::MAX,
+                kind: PrimKind::Triangle,
+                index: 0,
+            },
+        }
+    }
+
+    /// `keep_closest` then `t_max = t`, as `linear::intersect_range` does for a hit.
+    #[inline(always)]
+    fn offer(&mut self, t: f32, id: u32, kind: PrimKind, index: usize) {
+        if t < self.t || (t == self.t && id < self.id) {
+            self.t = t;
+            self.id = id;
+            self.kind = kind;
+            self.index = index as u32;
+        }
+        self.t_max = t;
+    }
+
+    #[inline(always)]
+    fn hit(&self, scene: &Scene) -> Option<Hit> {
+        if self.id == u32::MAX {
+            return None;
+        }
+        let i = self.index as usize;
+        let object = match self.kind {
+            PrimKind::Sphere => scene.spheres.object[i],
+            PrimKind::Quad => scene.quads.object[i],
+            PrimKind::Triangle => scene.triangles.object[i],
+        };
+        Some(Hit {
+            t: self.t,
+            id: self.id,
+            kind: self.kind,
+            index: self.index,
+            object,
+        })
+    }
+
+    /// Triangles `start..start + n` (n ≤ 4) in one `intersect4`, hits in pool order.
+    #[inline(always)]
+    fn triangles4(
+        &mut self,
+        scene: &Scene,
+        start: usize,
+        n: usize,
+        ray: &WatertightRay,
+        t_min: f32,
+    ) {
+        let tri = &scene.triangles;
+        let (t, mut mask) = tri.intersect4(start, n, ray, t_min, self.t_max);
+        while mask != 0 {
+            let k = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            if t[k] <= self.t_max {
+                let i = start + k;
+                self.offer(t[k], tri.id[i], PrimKind::Triangle, i);
+            }
+        }
+    }
+
+    /// `linear::intersect_range` on this state: spheres and triangles four at a time,
+    /// quads one at a time.
+    #[inline(never)]
+    fn range(
+        &mut self,
+        scene: &Scene,
+        kind: PrimKind,
+        range: Range<usize>,
+        ray: &PrimRay,
+        t_min: f32,
+    ) {
+        let mut start = range.start;
+        match kind {
+            PrimKind::Sphere => {
+                let s = &scene.spheres;
+                while start < range.end {
+                    let n = (range.end - start).min(4);
+                    let (t, mut mask) = s.intersect4(start, n, &ray.sphere, t_min, self.t_max);
+                    while mask != 0 {
+                        let k = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        if t[k] <= self.t_max {
+                            let i = start + k;
+                            self.offer(t[k], s.id[i], kind, i);
+                        }
+                    }
+                    start += n;
+                }
+            }
+            PrimKind::Quad => {
+                let q = &scene.quads;
+                for i in range {
+                    if let Some(t) = q.intersect(i, &ray.ray, t_min, self.t_max) {
+                        self.offer(t, q.id[i], kind, i);
+                    }
+                }
+            }
+            PrimKind::Triangle => {
+                while start < range.end {
+                    let n = (range.end - start).min(4);
+                    self.triangles4(scene, start, n, &ray.triangle, t_min);
+                    start += n;
+                }
+            }
+        }
     }
 }
 
@@ -267,7 +496,22 @@ impl Bvh4 {
             linear_kinds,
             depth: 0,
             leaves: 0,
+            linear_spheres: Vec::new(),
         };
+        if linear_kinds[0] {
+            let sp = &scene.spheres;
+            bvh.linear_spheres = (0..sp.len())
+                .step_by(4)
+                .map(|start| {
+                    let lane = |v: &[f32], k: usize| v.get(start + k).copied().unwrap_or(0.0);
+                    let v4 = |v: &[f32]| Vec4::from_array([0, 1, 2, 3].map(|k| lane(v, k)));
+                    SphereLanes {
+                        center: V3::new(v4(&sp.cx), v4(&sp.cy), v4(&sp.cz)),
+                        radius: v4(&sp.radius),
+                    }
+                })
+                .collect();
+        }
         // The collapse reads only the tree and `position`, so it runs beside the pool
         // reordering: on the 1.27M-triangle bunny each takes about 60 ms (mostly page
         // faults on their new arrays), a sixth of the whole build.
@@ -349,6 +593,7 @@ impl Bvh4 {
     }
 
     /// Closest hit in `[t_min, t_max]` by the `(t, id)` rule.
+    #[inline]
     pub fn closest_hit(
         &self,
         scene: &Scene,
@@ -357,27 +602,87 @@ impl Bvh4 {
         t_max: f32,
         stats: &mut TraversalStats,
     ) -> Option<Hit> {
-        let mut best = None;
-        let mut t_max = t_max;
-        let pray = PrimRay::new(ray);
-        for (k, kind) in [PrimKind::Sphere, PrimKind::Quad, PrimKind::Triangle]
-            .into_iter()
-            .enumerate()
-        {
-            if self.linear_kinds[k] {
-                let n = pool_len(scene, kind);
-                if n > 0 {
-                    stats.prims += n as u64;
-                    linear::intersect_range(scene, kind, 0..n, &pray, t_min, &mut t_max, &mut best);
+        let (mut consts, bray) = RayConsts::new(ray);
+        let mut c = Closest::new(t_max, &None);
+        // The tree first, the spheres beside it after: their test (a square root and a
+        // division) then does not delay the root's box test, which would wait for the
+        // `t_max` it produces; the ground sphere never pruned a node (same node counts on
+        // `bunny` and `bunny-closeup`), and 2.5% fewer instructions a closeup ray.
+        if let Some(root) = self.root {
+            self.traverse(scene, root, &mut consts, &bray, t_min, &mut c, stats);
+        }
+        self.linear_kinds(scene, &mut consts, t_min, &mut c, stats);
+        c.hit(scene)
+    }
+
+    /// The kinds beside the tree: the spheres pre-packed four a `Vec4` (the bunny scene's
+    /// three in one pass), quads and triangles out of line.
+    #[inline(always)]
+    fn linear_kinds(
+        &self,
+        scene: &Scene,
+        consts: &mut RayConsts,
+        t_min: f32,
+        c: &mut Closest,
+        stats: &mut TraversalStats,
+    ) {
+        let n = scene.spheres.len();
+        if self.linear_kinds[0] && n > 0 {
+            stats.prims += n as u64;
+            if self.linear_spheres.len() * 4 >= n {
+                // `SpherePool::intersect4` on the pre-packed lanes.
+                let s = &scene.spheres;
+                let r = &consts.sphere;
+                for (g, lanes) in self.linear_spheres.iter().enumerate() {
+                    let (t, hit) = sphere_distance(
+                        lanes.center,
+                        lanes.radius,
+                        V3::splat(r.origin),
+                        V3::splat(r.dir),
+                        Vec4::splat(r.a),
+                        Vec4::splat(r.inv_a),
+                        Vec4::splat(t_min),
+                        Vec4::splat(c.t_max),
+                    );
+                    let start = 4 * g;
+                    let t = t.to_array();
+                    let mut mask = hit.bitmask() & ((1u32 << (n - start).min(4)) - 1);
+                    while mask != 0 {
+                        let k = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        if t[k] <= c.t_max {
+                            c.offer(t[k], s.id[start + k], PrimKind::Sphere, start + k);
+                        }
+                    }
                 }
+            } else {
+                c.range(scene, PrimKind::Sphere, 0..n, &consts.prim(), t_min);
             }
         }
-        let Some(root) = self.root else { return best };
-        let bray = BoxRay::new(ray);
-        self.closest_hit_from(
-            scene, root, &pray, &bray, t_min, &mut t_max, &mut best, stats,
-        );
-        best
+        if self.linear_kinds[1] && !scene.quads.is_empty()
+            || self.linear_kinds[2] && !scene.triangles.is_empty()
+        {
+            self.linear_quads_triangles(scene, consts, t_min, c, stats);
+        }
+    }
+
+    #[inline(never)]
+    fn linear_quads_triangles(
+        &self,
+        scene: &Scene,
+        consts: &mut RayConsts,
+        t_min: f32,
+        c: &mut Closest,
+        stats: &mut TraversalStats,
+    ) {
+        let pray = consts.prim();
+        for (k, kind) in [(1, PrimKind::Quad), (2, PrimKind::Triangle)] {
+            let n = pool_len(scene, kind);
+            if self.linear_kinds[k] && n > 0 {
+                stats.prims += n as u64;
+                c.range(scene, kind, 0..n, &pray, t_min);
+            }
+        }
     }
 
     /// Closest hit in the subtree `root` (a node or leaf code), improving on `best` and
@@ -395,49 +700,114 @@ impl Bvh4 {
         best: &mut Option<Hit>,
         stats: &mut TraversalStats,
     ) {
+        let mut c = Closest::new(*t_max, best);
+        let mut consts = RayConsts::from_prim(pray);
+        self.traverse(scene, root, &mut consts, bray, t_min, &mut c, stats);
+        *t_max = c.t_max;
+        if let Some(h) = c.hit(scene) {
+            *best = Some(h);
+        }
+    }
+
+    /// The scalar closest-hit traversal. The current node stays in a register: of the
+    /// children a node's box test hits, the nearest is visited next and only the others
+    /// are pushed (farthest first), so a node with one hit child costs no push or pop.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn traverse(
+        &self,
+        scene: &Scene,
+        root: u32,
+        consts: &mut RayConsts,
+        bray: &BoxRay,
+        t_min: f32,
+        c: &mut Closest,
+        stats: &mut TraversalStats,
+    ) {
+        // As a root popped from the stack at entry t_min would be.
+        if t_min > c.t_max {
+            return;
+        }
         // Not zero-initialised: clearing 2 KiB per ray cost ~20% of the camera-ray rate on
         // `bunny` (perf, benches/bvh.rs). Only slots below `sp` are read, and each was
         // written before `sp` passed it.
         let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); STACK_SIZE];
-        stack[0].write((root, t_min));
-        let mut sp = 1;
-        while sp > 0 {
-            sp -= 1;
-            // SAFETY: slot `sp` < the highest `sp` reached, all of which were written.
-            let (code, enter) = unsafe { stack[sp].assume_init() };
-            if enter > *t_max {
-                continue;
-            }
-            if code & LEAF != 0 {
-                let (kind, start, count) = decode_leaf(code);
-                stats.prims += count as u64;
-                let range = start as usize..(start + count) as usize;
-                linear::intersect_range(scene, kind, range, pray, t_min, t_max, best);
-                continue;
-            }
-            stats.nodes += 1;
-            let node = &self.nodes[code as usize];
-            let (entry, mut mask) = bray.test(node, t_min, *t_max);
-            // Push the hit children farthest first, so the nearest is popped next.
-            let mut hits = [(0u32, 0f32); 4];
-            let mut k = 0;
-            while mask != 0 {
-                let i = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                let d = entry[i];
-                let mut j = k;
-                while j > 0 && hits[j - 1].1 < d {
-                    hits[j] = hits[j - 1];
-                    j -= 1;
+        let mut sp = 0;
+        let (mut nodes, mut prims) = (0u64, 0u64);
+        let mut code = root;
+        'visit: loop {
+            if code & LEAF == 0 {
+                nodes += 1;
+                let node = &self.nodes[code as usize];
+                let (entry, mask) = bray.test(node, t_min, c.t_max);
+                if mask != 0 {
+                    let i = mask.trailing_zeros() as usize;
+                    let rest = mask & (mask - 1);
+                    if rest == 0 {
+                        code = node.child[i];
+                        continue 'visit;
+                    }
+                    let e = entry.to_array();
+                    let j = rest.trailing_zeros() as usize;
+                    if rest & (rest - 1) == 0 {
+                        // Two: push the farther.
+                        let (near, far) = if e[j] < e[i] { (j, i) } else { (i, j) };
+                        stack[sp].write((node.child[far], e[far]));
+                        sp += 1;
+                        code = node.child[near];
+                        continue 'visit;
+                    }
+                    // Three or four: sort farthest first, push all but the nearest.
+                    let mut hits = [(0u32, 0f32); 4];
+                    let mut k = 0;
+                    let mut m = mask;
+                    while m != 0 {
+                        let i = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        let d = e[i];
+                        let mut j = k;
+                        while j > 0 && hits[j - 1].1 < d {
+                            hits[j] = hits[j - 1];
+                            j -= 1;
+                        }
+                        hits[j] = (node.child[i], d);
+                        k += 1;
+                    }
+                    for h in &hits[..k - 1] {
+                        stack[sp].write(*h);
+                        sp += 1;
+                    }
+                    code = hits[k - 1].0;
+                    continue 'visit;
                 }
-                hits[j] = (node.child[i], d);
-                k += 1;
+            } else {
+                let (kind, start, count) = decode_leaf(code);
+                prims += count as u64;
+                if kind == PrimKind::Triangle {
+                    let tri = consts.triangle();
+                    c.triangles4(scene, start as usize, count as usize, tri, t_min);
+                } else {
+                    let range = start as usize..(start + count) as usize;
+                    c.range(scene, kind, range, &consts.prim(), t_min);
+                }
             }
-            for h in &hits[..k] {
-                stack[sp].write(*h);
-                sp += 1;
+            // Pop the next node still nearer than the best hit.
+            loop {
+                if sp == 0 {
+                    break 'visit;
+                }
+                sp -= 1;
+                // SAFETY: slot `sp` < the highest `sp` reached, all of which were written.
+                let (next, enter) = unsafe { stack[sp].assume_init() };
+                if enter > c.t_max {
+                    continue;
+                }
+                code = next;
+                continue 'visit;
             }
         }
+        stats.nodes += nodes;
+        stats.prims += prims;
     }
 
     /// Is there a hit of another object than `object` that beats `(t_light, id_light)`

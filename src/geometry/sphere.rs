@@ -4,7 +4,7 @@
 
 use super::{Aabb, Ray};
 use crate::lanes::{Lane, V3};
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 /// Spheres, structure-of-arrays.
 #[derive(Clone, Debug, Default)]
@@ -73,6 +73,44 @@ impl SpherePool {
     #[inline]
     pub fn intersect(&self, i: usize, ray: &SphereRay, t_min: f32, t_max: f32) -> Option<f32> {
         sphere_intersect_with(self.center(i), self.radius[i], ray, t_min, t_max)
+    }
+}
+
+impl SpherePool {
+    /// Spheres `start..start + n` (n ≤ 4) against one ray in one `Vec4` pass of
+    /// `sphere_distance`, lane for lane the scalar test's operations, so the same bits.
+    /// Returns the distances and the mask of lanes that hit in `[t_min, t_max]`.
+    ///
+    /// Tested with one `t_max` for all four where the one-at-a-time loop shrinks it after
+    /// each hit: the caller keeps a lane only if its t is still ≤ the current `t_max`,
+    /// which gives the loop's answer (a lower `t_max` can only turn the near root into a
+    /// miss, never into the far root: the far root is not nearer).
+    #[inline(always)]
+    pub fn intersect4(
+        &self,
+        start: usize,
+        n: usize,
+        ray: &SphereRay,
+        t_min: f32,
+        t_max: f32,
+    ) -> ([f32; 4], u32) {
+        use super::triangle::load4;
+        let center = V3::new(
+            load4(&self.cx, start, n),
+            load4(&self.cy, start, n),
+            load4(&self.cz, start, n),
+        );
+        let (t, hit) = sphere_distance(
+            center,
+            load4(&self.radius, start, n),
+            V3::splat(ray.origin),
+            V3::splat(ray.dir),
+            Vec4::splat(ray.a),
+            Vec4::splat(ray.inv_a),
+            Vec4::splat(t_min),
+            Vec4::splat(t_max),
+        );
+        (t.to_array(), hit.bitmask() & ((1u32 << n) - 1))
     }
 }
 

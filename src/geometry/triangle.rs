@@ -89,15 +89,39 @@ impl TrianglePool {
 /// Four lanes of `values[start..start + n]` (n ≤ 4); lanes past `n` hold whatever follows
 /// (or 0 at the end of the pool) and must be masked by the caller.
 #[inline(always)]
-fn load4(values: &[f32], start: usize, n: usize) -> Vec4 {
+pub(crate) fn load4(values: &[f32], start: usize, n: usize) -> Vec4 {
     match values.get(start..start + 4) {
         Some(s) => Vec4::from_slice(s),
-        None => {
-            let mut a = [0.0; 4];
-            a[..n].copy_from_slice(&values[start..start + n]);
-            Vec4::from_array(a)
-        }
+        None => load4_tail(values, start, n),
     }
+}
+
+/// `load4` at the end of a pool (out of the hot path).
+#[cold]
+#[inline(never)]
+fn load4_tail(values: &[f32], start: usize, n: usize) -> Vec4 {
+    let mut a = [0.0; 4];
+    a[..n].copy_from_slice(&values[start..start + n]);
+    Vec4::from_array(a)
+}
+
+/// One vertex of four triangles, read in the ray's axis order and sheared.
+#[inline(always)]
+fn load_sheared(
+    p: &[Vec<f32>; 3],
+    [kx, ky, kz]: [usize; 3],
+    start: usize,
+    n: usize,
+    o: [Vec4; 3],
+    sx: Vec4,
+    sy: Vec4,
+) -> [Vec4; 3] {
+    let v = [
+        load4(&p[kx], start, n),
+        load4(&p[ky], start, n),
+        load4(&p[kz], start, n),
+    ];
+    shear(v, o, sx, sy)
 }
 
 impl TrianglePool {
@@ -105,7 +129,11 @@ impl TrianglePool {
     /// lane for lane the operations of `WatertightRay::intersect_permuted`, so the same
     /// bits. Lanes whose edge function rounds to zero are redone one at a time (with that
     /// test's f64 fallback). Returns the distances and the mask of lanes that hit.
-    #[inline]
+    ///
+    /// Always inlined (it is the scalar traversal's leaf test): as a call, with its vertex
+    /// loads in a closure that was not inlined either, it cost ~30% more instructions per
+    /// camera ray on `bunny-closeup` (callgrind, `examples/trace_probe.rs`).
+    #[inline(always)]
     pub fn intersect4(
         &self,
         start: usize,
@@ -120,16 +148,10 @@ impl TrianglePool {
             Vec4::splat(ray.sy),
             Vec4::splat(ray.sz),
         );
-        let [kx, ky, kz] = ray.axes;
-        let load = |p: &[Vec<f32>; 3]| {
-            let v = [
-                load4(&p[kx], start, n),
-                load4(&p[ky], start, n),
-                load4(&p[kz], start, n),
-            ];
-            shear(v, o, sx, sy)
-        };
-        let (a, b, c) = (load(&self.a), load(&self.b), load(&self.c));
+        let axes = ray.axes;
+        let a = load_sheared(&self.a, axes, start, n, o, sx, sy);
+        let b = load_sheared(&self.b, axes, start, n, o, sx, sy);
+        let c = load_sheared(&self.c, axes, start, n, o, sx, sy);
         let [u, v, w] = edge_functions(a, b, c);
         let zero = Vec4::ZERO;
         let lanes = (1u32 << n) - 1;
@@ -143,9 +165,29 @@ impl TrianglePool {
             Vec4::splat(t_min),
             Vec4::splat(t_max),
         );
-        let mut mask = hit.bitmask() & lanes & !exact_zero;
-        let mut out = t.to_array();
-        let mut redo = exact_zero;
+        let mask = hit.bitmask() & lanes & !exact_zero;
+        let out = t.to_array();
+        if exact_zero != 0 {
+            return self.redo_exact_zero(start, ray, t_min, t_max, out, mask, exact_zero);
+        }
+        (out, mask)
+    }
+
+    /// The lanes of `intersect4` whose edge function rounded to zero, redone one at a time
+    /// with the scalar test (and its f64 fallback). Rare: kept out of line.
+    #[cold]
+    #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
+    fn redo_exact_zero(
+        &self,
+        start: usize,
+        ray: &WatertightRay,
+        t_min: f32,
+        t_max: f32,
+        mut out: [f32; 4],
+        mut mask: u32,
+        mut redo: u32,
+    ) -> ([f32; 4], u32) {
         while redo != 0 {
             let k = redo.trailing_zeros() as usize;
             redo &= redo - 1;
@@ -191,6 +233,7 @@ pub struct WatertightRay {
 }
 
 impl WatertightRay {
+    #[inline]
     pub fn new(ray: &Ray) -> Self {
         let d = ray.dir.to_array();
         let [kx, ky, kz] = Self::axes(ray.dir);
