@@ -147,26 +147,31 @@ impl SampleKey {
 
     /// The uniform number in [0, 1) for `slot` at path vertex `vertex` (0 = the surface the
     /// camera ray hits; a mirror reflection or a bounce moves to the next vertex).
-    #[inline]
+    #[inline(always)]
     pub fn uniform(self, vertex: u32, slot: u32) -> f32 {
         match self.kind {
             SamplerKind::Independent => {
                 let dim = hash_u32(hash_u32(vertex).wrapping_add(slot));
                 to_unit(hash_u32(self.hash ^ dim))
             }
-            SamplerKind::Stratified | SamplerKind::Sobol => {
-                let d = Dimension::of(slot);
-                // One scramble per pixel and pair of dimensions.
-                let pair = hash_u32(hash_u32(vertex).wrapping_add(d.pair));
-                let seed = hash_u32(self.pixel ^ pair);
-                let index = self.sample.wrapping_mul(d.draws).wrapping_add(d.draw);
-                if self.kind == SamplerKind::Sobol {
-                    to_unit(sobol_owen(index, seed, d.component))
-                } else {
-                    let n = self.spp.saturating_mul(d.draws);
-                    cmj(index % n, n, seed, d.component)
-                }
-            }
+            // Out of line: inlining the structured samplers into every call site kept
+            // the independent sampler's few instructions from being inlined at all.
+            _ => self.structured_uniform(vertex, slot),
+        }
+    }
+
+    #[inline(never)]
+    fn structured_uniform(self, vertex: u32, slot: u32) -> f32 {
+        let d = Dimension::of(slot);
+        // One scramble per pixel and pair of dimensions.
+        let pair = hash_u32(hash_u32(vertex).wrapping_add(d.pair));
+        let seed = hash_u32(self.pixel ^ pair);
+        let index = self.sample.wrapping_mul(d.draws).wrapping_add(d.draw);
+        if self.kind == SamplerKind::Sobol {
+            to_unit(sobol_owen(index, seed, d.component))
+        } else {
+            let n = self.spp.saturating_mul(d.draws);
+            cmj(index % n, n, seed, d.component)
         }
     }
 }
