@@ -70,16 +70,9 @@ fn rays(bounds: Aabb, n: usize, seed: u64) -> Vec<Ray> {
                 Ray::new(o, (target - o).normalize_or(Vec3::X))
             }
             _ => {
-                let axis = (rng.next_u64() % 6) as usize;
-                let mut d = [0.0f32; 3];
-                d[axis % 3] = if axis < 3 { 1.0 } else { -1.0 };
                 // Signed zeros on the other axes.
-                for (k, c) in d.iter_mut().enumerate() {
-                    if k != axis % 3 && rng.next_u64() % 2 == 0 {
-                        *c = -0.0;
-                    }
-                }
-                Ray::new(point(&mut rng, 0.2), Vec3::from(d))
+                let d = rng.axis_direction();
+                Ray::new(point(&mut rng, 0.2), d)
             }
         })
         .collect()

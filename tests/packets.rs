@@ -222,15 +222,9 @@ fn packet_rays(scene: &Scene, accel: &Accel, kind: u8, seed: u64) -> [Ray; MAX_W
             Ray::new(o, (point(&mut rng, 0.0) - o).normalize_or(Vec3::X))
         }
         2 => {
-            let axis = (rng.next_u64() % 6) as usize;
-            let mut d = [0.0f32; 3];
-            d[axis % 3] = if axis < 3 { 1.0 } else { -1.0 };
-            for (k, c) in d.iter_mut().enumerate() {
-                if k != axis % 3 && rng.next_u64() % 2 == 0 {
-                    *c = -0.0;
-                }
-            }
-            Ray::new(point(&mut rng, 0.2), Vec3::from(d))
+            // Signed zeros on the other axes.
+            let d = rng.axis_direction();
+            Ray::new(point(&mut rng, 0.2), d)
         }
         3 => {
             let o = point(&mut rng, 1.0);

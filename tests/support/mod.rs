@@ -97,6 +97,19 @@ impl Rng {
         lo + (hi - lo) * self.f32()
     }
 
+    /// A random axis direction (±x, ±y or ±z) whose other components are +0 or −0.
+    pub fn axis_direction(&mut self) -> glam::Vec3 {
+        let axis = (self.next_u64() % 6) as usize;
+        let mut d = [0.0f32; 3];
+        d[axis % 3] = if axis < 3 { 1.0 } else { -1.0 };
+        for (k, c) in d.iter_mut().enumerate() {
+            if k != axis % 3 && self.next_u64() % 2 == 0 {
+                *c = -0.0;
+            }
+        }
+        glam::Vec3::from(d)
+    }
+
     pub fn unit_vector(&mut self) -> glam::Vec3 {
         let z = self.range(-1.0, 1.0);
         let phi = self.range(0.0, std::f32::consts::TAU);
