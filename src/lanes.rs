@@ -18,6 +18,19 @@ use wide::{f32x8, i32x8, CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, CmpNe};
 /// Whether the 8-wide lanes run as one AVX register (else as two SSE halves).
 pub const AVX2: bool = cfg!(target_feature = "avx2");
 
+/// The lanes set in the bit mask `mask`, in lane order.
+#[inline(always)]
+pub fn set_lanes(mask: u32) -> impl Iterator<Item = usize> {
+    let mut rest = mask;
+    std::iter::from_fn(move || {
+        (rest != 0).then(|| {
+            let k = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            k
+        })
+    })
+}
+
 /// A lane mask: one bit per lane.
 pub trait Mask: Copy + BitAnd<Output = Self> + BitOr<Output = Self> + Not<Output = Self> {
     /// Bit `i` set when lane `i` is set.

@@ -82,6 +82,15 @@ impl Node4 {
         _pad: [0; 4],
     };
 
+    /// The box of child `i` as (min, max) corners.
+    #[inline(always)]
+    pub fn child_box(&self, i: usize) -> ([f32; 3], [f32; 3]) {
+        (
+            [self.min_x[i], self.min_y[i], self.min_z[i]],
+            [self.max_x[i], self.max_y[i], self.max_z[i]],
+        )
+    }
+
     fn set_child(&mut self, i: usize, b: Aabb, code: u32) {
         self.min_x[i] = b.min.x;
         self.min_y[i] = b.min.y;

@@ -13,7 +13,7 @@ pub mod linear;
 pub mod packet;
 
 use crate::geometry::{Hit, Ray};
-use crate::lanes::Lane;
+use crate::lanes::{set_lanes, Lane};
 use crate::scene::{Light, LightShape, Scene};
 use bvh4::Bvh4;
 use linear::LinearScan;
@@ -183,7 +183,7 @@ impl Accel {
         match self {
             Accel::Linear(_) => {
                 let mut visible = 0;
-                for k in (0..L::WIDTH).filter(|k| lanes >> k & 1 != 0) {
+                for k in set_lanes(lanes) {
                     if self.light_visible(scene, &p.rays[k], t_min, light, stats) {
                         visible |= 1 << k;
                     }
@@ -203,7 +203,7 @@ impl Accel {
                         id_light[k] = light.first_id;
                     }
                 } else {
-                    for k in (0..L::WIDTH).filter(|k| lanes >> k & 1 != 0) {
+                    for k in set_lanes(lanes) {
                         if let Some((t, id)) = light.nearest_hit(&p.rays[k], t_min) {
                             t_light[k] = t;
                             id_light[k] = id;

@@ -15,7 +15,7 @@ use crate::geometry::quad::quad_distance;
 use crate::geometry::sphere::sphere_distance;
 use crate::geometry::triangle::{edge_functions, shear, watertight_distance, WatertightRay};
 use crate::geometry::{keep_closest, Aabb, Hit, PrimKind, Ray};
-use crate::lanes::{Lane, Mask, V3};
+use crate::lanes::{set_lanes, Lane, Mask, V3};
 use crate::scene::Scene;
 use std::mem::MaybeUninit;
 
@@ -308,9 +308,7 @@ impl<L: Lane> RayPacket<L> {
         for (k, o) in out.iter_mut().enumerate().take(L::WIDTH) {
             *o = t.lane(k);
         }
-        while redo != 0 {
-            let k = redo.trailing_zeros() as usize;
-            redo &= redo - 1;
+        for k in set_lanes(redo) {
             let tri = &scene.triangles;
             let ray = WatertightRay::new(&self.rays[k]);
             if let Some(tk) = tri.intersect(i, &ray, t_min, t_max[k]) {
@@ -360,15 +358,13 @@ impl<L: Lane> Closest<L> {
     ) {
         let mut any = false;
         for i in range {
-            let (t, mut bits) = p.test_prim(scene, kind, i, t_min, &self.t_max, lanes);
+            let (t, bits) = p.test_prim(scene, kind, i, t_min, &self.t_max, lanes);
             if bits == 0 {
                 continue;
             }
             any = true;
             let (id, object) = ids(scene, kind, i);
-            while bits != 0 {
-                let k = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
+            for k in set_lanes(bits) {
                 let hit = Hit {
                     t: t[k],
                     id,
@@ -462,18 +458,14 @@ impl Bvh4 {
                 if child == EMPTY {
                     continue;
                 }
-                let lo = [node.min_x[c], node.min_y[c], node.min_z[c]];
-                let hi = [node.max_x[c], node.max_y[c], node.max_z[c]];
+                let (lo, hi) = node.child_box(c);
                 let (entry, bits) = p.test_box(lo, hi, L::splat(t_min), t_max);
                 let bits = bits & lanes;
                 if bits == 0 {
                     continue;
                 }
                 if bits.count_ones() <= fallback {
-                    let mut rest = bits;
-                    while rest != 0 {
-                        let k = rest.trailing_zeros() as usize;
-                        rest &= rest - 1;
+                    for k in set_lanes(bits) {
                         let (pray, bray) = p.scalar(k);
                         self.closest_hit_from(
                             scene,
@@ -547,10 +539,8 @@ impl Bvh4 {
                 if obj == object {
                     continue;
                 }
-                let (t, mut bits) = p.test_prim(scene, kind, i, t_min, t_max, lanes & !found);
-                while bits != 0 {
-                    let k = bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
+                let (t, bits) = p.test_prim(scene, kind, i, t_min, t_max, lanes & !found);
+                for k in set_lanes(bits) {
                     if t[k] < t_light[k] || id < id_light[k] {
                         found |= 1 << k;
                     }
@@ -620,18 +610,14 @@ impl Bvh4 {
                     if child == EMPTY {
                         continue;
                     }
-                    let lo = [node.min_x[c], node.min_y[c], node.min_z[c]];
-                    let hi = [node.max_x[c], node.max_y[c], node.max_z[c]];
+                    let (lo, hi) = node.child_box(c);
                     let (_, bits) = p.test_box(lo, hi, L::splat(t_min), t_max_l);
                     let bits = bits & lanes & !found;
                     if bits == 0 {
                         continue;
                     }
                     if bits.count_ones() <= fallback {
-                        let mut rest = bits;
-                        while rest != 0 {
-                            let k = rest.trailing_zeros() as usize;
-                            rest &= rest - 1;
+                        for k in set_lanes(bits) {
                             let (pray, bray) = p.scalar(k);
                             if self.occluded_from(
                                 scene,

@@ -13,8 +13,8 @@ use super::{adds_nothing, scatter, PhongLanes, RayCounts, Surface, Tracer, T_MIN
 use crate::accel::packet::{RayPacket, MAX_WIDTH};
 use crate::geometry::spawn::spawn_ray;
 use crate::geometry::Ray;
-use crate::lanes::Lane;
 use crate::lanes::V3;
+use crate::lanes::{set_lanes, Lane};
 use crate::material::{reflect, schlick, Material, Phong};
 use crate::rng::{keys_lanes, slot, uniform_lanes, SampleKey, SamplerKind, MAX_LIGHT_SAMPLES};
 use glam::Vec3;
@@ -26,19 +26,6 @@ pub const fn footprint(width: usize) -> (u32, u32) {
         4 => (2, 2),
         _ => (1, 1),
     }
-}
-
-/// The lanes set in `mask`, in lane order.
-#[inline]
-fn lanes(mask: u32) -> impl Iterator<Item = usize> {
-    let mut rest = mask;
-    std::iter::from_fn(move || {
-        (rest != 0).then(|| {
-            let k = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
-            k
-        })
-    })
 }
 
 const NO_RAY: Ray = Ray {
@@ -132,7 +119,7 @@ impl Tracer<'_> {
         let mut surfaces: [Option<Surface>; MAX_WIDTH] = [None; MAX_WIDTH];
         let mut phong_lanes = 0u32;
         let mut mirror_lanes = 0u32;
-        for k in lanes(active) {
+        for k in set_lanes(active) {
             let Some(hit) = hits[k] else {
                 out[k] = weight(scene.background);
                 continue;
@@ -205,7 +192,7 @@ impl Tracer<'_> {
                     &mut samples[li * MAX_LIGHT_SAMPLES as usize + j as usize];
                 let mut shadow = [NO_RAY; MAX_WIDTH];
                 let mut traced = 0u32;
-                for k in lanes(phong_lanes) {
+                for k in set_lanes(phong_lanes) {
                     let s = surfaces[k].as_ref().expect("a Phong lane has a surface");
                     if let Some(l) = self.light_direction(s, keys[k], vertex, li, j) {
                         dirs[k] = l;
@@ -244,7 +231,7 @@ impl Tracer<'_> {
             (valid & visible, V3::from_fn(|k| dirs[k]))
         });
         let mut local = [Vec3::ZERO; MAX_WIDTH];
-        for k in lanes(phong_lanes) {
+        for k in set_lanes(phong_lanes) {
             local[k] = colour.lane(k);
             if mirror_lanes >> k & 1 == 0 {
                 out[k] = weight(local[k]);
@@ -256,7 +243,7 @@ impl Tracer<'_> {
 
         // PhongMirror: the reflections as one packet, then the Schlick mix.
         let mut reflected_rays = [NO_RAY; MAX_WIDTH];
-        for k in lanes(mirror_lanes) {
+        for k in set_lanes(mirror_lanes) {
             let s = surfaces[k].as_ref().expect("a mirror lane has a surface");
             let dir = reflect(rays[k].dir, s.normal).normalize();
             reflected_rays[k] = spawn_ray(&s.point, s.normal, dir);
@@ -272,7 +259,7 @@ impl Tracer<'_> {
             false,
             counts,
         );
-        for k in lanes(mirror_lanes) {
+        for k in set_lanes(mirror_lanes) {
             let s = surfaces[k].as_ref().expect("a mirror lane has a surface");
             let hit = hits[k].expect("a mirror lane has a hit");
             let Material::PhongMirror { index, .. } = *scene.material_of(hit.object) else {
