@@ -527,23 +527,11 @@ fn run_sweep(a: &SweepArgs) -> anyhow::Result<ExitCode> {
     }
     let (reference, info) = sweep::load_reference(&reference_path)?;
     let (mut scene, accel) = sweep::prepare(&a.scene, Some(a.width))?;
-    let widths: Vec<u32> = a
-        .packet_widths
-        .iter()
-        .copied()
-        .filter(|&w| {
-            let ok = sweep::packet_width_supported(w);
-            if !ok {
-                eprintln!("note: packet width {w} is not built yet; skipped");
-            }
-            ok
-        })
-        .collect();
     let plan = sweep::SweepPlan {
         spp_max: a.spp_max,
         runs: a.runs,
         samplers: a.samplers.clone(),
-        packet_widths: widths,
+        packet_widths: a.packet_widths.clone(),
         seed: a.seed,
     };
     eprintln!(

@@ -18,11 +18,6 @@ use std::time::Instant;
 /// shares numbers with the renders measured against it.
 pub const REFERENCE_SEEDS: [u32; 2] = [0x5eed_0001, 0x5eed_0002];
 
-/// Packet widths the renderer implements; the sweep skips the others with a note.
-pub fn packet_width_supported(width: u32) -> bool {
-    matches!(width, 1 | 4 | 8)
-}
-
 /// What a reference image is and how noisy it is, stored beside it as JSON.
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct ReferenceInfo {
