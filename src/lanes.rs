@@ -72,10 +72,24 @@ pub trait Lane:
     fn max(self, o: Self) -> Self;
     fn sqrt(self) -> Self;
     fn abs(self) -> Self;
-    /// The smallest lane (by `min`'s rule, lane 0 first).
+    /// The smallest lane, for lanes that are not NaN (a NaN lane may or may not be
+    /// skipped). A pairwise tree of `a < b ? a : b`, one `minss` each: `f32::min`'s
+    /// NaN handling cost three more instructions per lane (callgrind, packet traversal).
     #[inline(always)]
     fn reduce_min(self) -> f32 {
-        (1..Self::WIDTH).fold(self.lane(0), |m, i| m.min(self.lane(i)))
+        let min = |a: f32, b: f32| if a < b { a } else { b };
+        let mut v = [f32::INFINITY; 8];
+        for (i, x) in v.iter_mut().enumerate().take(Self::WIDTH) {
+            *x = self.lane(i);
+        }
+        let mut w = Self::WIDTH;
+        while w > 1 {
+            w /= 2;
+            for i in 0..w {
+                v[i] = min(v[i], v[i + w]);
+            }
+        }
+        v[0]
     }
 }
 
@@ -455,6 +469,37 @@ mod tests {
         for i in 0..L::WIDTH {
             assert_eq!(s.lane(i), if bits >> i & 1 != 0 { 1.0 } else { 2.0 });
         }
+    }
+
+    fn check_reduce_min<L: Lane>() {
+        // Every position of the minimum, with ties and infinities among the others.
+        let base = [
+            3.0,
+            f32::INFINITY,
+            5.5,
+            3.0,
+            -1.0,
+            9.0,
+            f32::NEG_INFINITY,
+            0.25,
+        ];
+        for at in 0..L::WIDTH {
+            let v = L::from_fn(|i| if i == at { -7.5 } else { base[i].max(-2.0) });
+            assert_eq!(v.reduce_min(), -7.5, "minimum in lane {at}");
+        }
+        let v = L::from_fn(|i| base[i]);
+        let want = base[..L::WIDTH]
+            .iter()
+            .copied()
+            .fold(f32::INFINITY, f32::min);
+        assert_eq!(v.reduce_min(), want);
+    }
+
+    #[test]
+    fn reduce_min_finds_the_smallest_lane_at_every_width() {
+        check_reduce_min::<f32>();
+        check_reduce_min::<Vec4>();
+        check_reduce_min::<f32x8>();
     }
 
     #[test]

@@ -8,7 +8,9 @@
 //! `(t, id)` whatever the visiting order. A subtree entered by few lanes
 //! (`Packet::fallback`) is finished one ray at a time by the scalar traversal.
 
-use super::bvh4::{decode_leaf, pool_len, slab, BoxRay, Bvh4, EMPTY, FAR_SCALE, LEAF, NEAR_SCALE};
+use super::bvh4::{
+    decode_leaf, pool_len, slab, BoxRay, Bvh4, Node4, EMPTY, FAR_SCALE, LEAF, NEAR_SCALE,
+};
 use super::linear::PrimRay;
 use super::TraversalStats;
 use crate::geometry::quad::quad_distance;
@@ -49,6 +51,10 @@ pub struct RayPacket<L: Lane> {
     tri_sx: L,
     tri_sy: L,
     tri_sz: L,
+    /// When every axis has a uniform sign: the rows of `Node4` (as `[[f32; 4]; 8]`)
+    /// holding each axis' near and far planes, as `BoxRay` picks them, so a child's box
+    /// test is six broadcast loads with no per-axis select.
+    box_rows: Option<([usize; 3], [usize; 3])>,
 }
 
 impl<L: Lane> RayPacket<L> {
@@ -149,6 +155,16 @@ impl<L: Lane> RayPacket<L> {
             inv_near: inv.map(|x| x * near_scale),
             inv_far: inv.map(|x| x * far_scale),
             uniform_sign: signs.map(uniform),
+            box_rows: match signs.map(uniform) {
+                [Some(x), Some(y), Some(z)] => {
+                    let negative = [x, y, z].map(usize::from);
+                    Some((
+                        [0, 1, 2].map(|a| a + 3 * negative[a]),
+                        [0, 1, 2].map(|a| a + 3 - 3 * negative[a]),
+                    ))
+                }
+                _ => None,
+            },
             negative: signs.map(L::Mask::from_bits),
             sphere_a,
             sphere_inv_a: one / sphere_a,
@@ -236,6 +252,33 @@ impl<L: Lane> RayPacket<L> {
         let o = [self.origin.x, self.origin.y, self.origin.z];
         let (enter, hit) = slab(near, far, o, self.inv_near, self.inv_far, t_min, t_max);
         (enter, hit.bits())
+    }
+
+    /// `test_box` of child `c` of `node`.
+    #[inline(always)]
+    fn test_child(&self, node: &Node4, c: usize, t_min: L, t_max: L) -> (L, u32) {
+        match self.box_rows {
+            Some((near_row, far_row)) => {
+                let rows: &[[f32; 4]; 8] = bytemuck::cast_ref(node);
+                // `& 7`: the rows are 0..6; the mask drops the bounds checks.
+                let plane = |r: usize| L::splat(rows[r & 7][c & 3]);
+                let o = [self.origin.x, self.origin.y, self.origin.z];
+                let (enter, hit) = slab(
+                    near_row.map(plane),
+                    far_row.map(plane),
+                    o,
+                    self.inv_near,
+                    self.inv_far,
+                    t_min,
+                    t_max,
+                );
+                (enter, hit.bits())
+            }
+            None => {
+                let (lo, hi) = node.child_box(c);
+                self.test_box(lo, hi, t_min, t_max)
+            }
+        }
     }
 
     /// Distances and hit lanes (of `lanes`) of one primitive, with `t_max` per lane.
@@ -458,8 +501,7 @@ impl Bvh4 {
                 if child == EMPTY {
                     continue;
                 }
-                let (lo, hi) = node.child_box(c);
-                let (entry, bits) = p.test_box(lo, hi, L::splat(t_min), t_max);
+                let (entry, bits) = p.test_child(node, c, L::splat(t_min), t_max);
                 let bits = bits & lanes;
                 if bits == 0 {
                     continue;
@@ -610,8 +652,7 @@ impl Bvh4 {
                     if child == EMPTY {
                         continue;
                     }
-                    let (lo, hi) = node.child_box(c);
-                    let (_, bits) = p.test_box(lo, hi, L::splat(t_min), t_max_l);
+                    let (_, bits) = p.test_child(node, c, L::splat(t_min), t_max_l);
                     let bits = bits & lanes & !found;
                     if bits == 0 {
                         continue;
