@@ -15,7 +15,9 @@ use super::linear::PrimRay;
 use super::TraversalStats;
 use crate::geometry::quad::quad_distance;
 use crate::geometry::sphere::sphere_distance;
-use crate::geometry::triangle::{edge_functions, shear, watertight_distance, WatertightRay};
+use crate::geometry::triangle::{
+    edge_functions, shear, watertight_distance, TrianglePool, WatertightRay,
+};
 use crate::geometry::{keep_closest, Aabb, Hit, PrimKind, Ray};
 use crate::lanes::{set_lanes, Lane, Mask, V3};
 use crate::scene::Scene;
@@ -200,6 +202,16 @@ impl<L: Lane> RayPacket<L> {
         (t, hit.bits() & lanes)
     }
 
+    /// The triangle columns in this packet's axis order, when its lanes share one.
+    pub(crate) fn columns<'s>(&self, tri: &'s TrianglePool) -> Option<Columns<'s>> {
+        let [kx, ky, kz] = self.tri_axes?;
+        let len = tri.len();
+        let cols = [&tri.a, &tri.b, &tri.c].map(|p| [&p[kx][..], &p[ky][..], &p[kz][..]]);
+        let cols: [&[f32]; 9] = std::array::from_fn(|m| cols[m / 3][m % 3]);
+        assert!(cols.iter().all(|c| c.len() == len));
+        Some(Columns { cols, len })
+    }
+
     /// The scalar constants of lane `k`, for a subtree it finishes alone.
     #[inline]
     fn scalar(&self, k: usize) -> (PrimRay, BoxRay) {
@@ -284,6 +296,7 @@ impl<L: Lane> RayPacket<L> {
     /// Distances and hit lanes (of `lanes`) of one primitive, with `t_max` per lane.
     /// Triangle lanes whose edge function rounds to zero, or packets whose lanes order the
     /// axes differently, are tested one lane at a time by the scalar test.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn test_prim(
         &self,
@@ -293,6 +306,7 @@ impl<L: Lane> RayPacket<L> {
         t_min: f32,
         t_max: &[f32; MAX_WIDTH],
         lanes: u32,
+        cols: Option<&Columns>,
     ) -> ([f32; MAX_WIDTH], u32) {
         let t_min_l = L::splat(t_min);
         let t_max_l = L::from_fn(|k| t_max[k]);
@@ -328,14 +342,14 @@ impl<L: Lane> RayPacket<L> {
                 );
                 (t, hit.bits(), 0)
             }
-            PrimKind::Triangle => match self.tri_axes {
-                Some([kx, ky, kz]) => {
-                    let tri = &scene.triangles;
-                    let vertex = |p: &[Vec<f32>; 3]| {
-                        let v = [L::splat(p[kx][i]), L::splat(p[ky][i]), L::splat(p[kz][i])];
+            PrimKind::Triangle => match cols {
+                Some(cols) => {
+                    assert!(i < cols.len);
+                    let vertex = |m: usize| {
+                        let v = [m, m + 1, m + 2].map(|m| L::splat(cols.at(m, i)));
                         shear(v, self.tri_origin, self.tri_sx, self.tri_sy)
                     };
-                    let (a, b, c) = (vertex(&tri.a), vertex(&tri.b), vertex(&tri.c));
+                    let (a, b, c) = (vertex(0), vertex(3), vertex(6));
                     let [u, v, w] = edge_functions(a, b, c);
                     let zero = L::splat(0.0);
                     let exact_zero = (u.eq(zero) | v.eq(zero) | w.eq(zero)).bits();
@@ -360,6 +374,26 @@ impl<L: Lane> RayPacket<L> {
             }
         }
         (out, bits)
+    }
+}
+
+/// The triangle pool's nine vertex columns (a, b, c; x, y, z each) in a packet's axis
+/// order, looked up once a traversal instead of at every triangle test: the per-test
+/// axis checks, pointer loads and bounds checks were a third of a packet's triangle
+/// test (callgrind, `examples/packet_probe`).
+pub(crate) struct Columns<'s> {
+    cols: [&'s [f32]; 9],
+    len: usize,
+}
+
+impl<'s> Columns<'s> {
+    /// Column `m` at triangle `i` (`i < len`, checked by the caller).
+    #[inline(always)]
+    fn at(&self, m: usize, i: usize) -> f32 {
+        debug_assert!(i < self.len);
+        // SAFETY: every column has `len` elements (checked in `RayPacket::columns`) and
+        // the caller checked `i < len`.
+        unsafe { *self.cols[m].get_unchecked(i) }
     }
 }
 
@@ -389,6 +423,7 @@ impl<L: Lane> Closest<L> {
         self.t_max_lanes = L::from_fn(|k| self.t_max[k]);
     }
 
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn leaf(
         &mut self,
@@ -398,10 +433,11 @@ impl<L: Lane> Closest<L> {
         range: std::ops::Range<usize>,
         t_min: f32,
         lanes: u32,
+        cols: Option<&Columns>,
     ) {
         let mut any = false;
         for i in range {
-            let (t, bits) = p.test_prim(scene, kind, i, t_min, &self.t_max, lanes);
+            let (t, bits) = p.test_prim(scene, kind, i, t_min, &self.t_max, lanes, cols);
             if bits == 0 {
                 continue;
             }
@@ -442,6 +478,13 @@ impl Bvh4 {
                 f32::NEG_INFINITY
             }
         });
+        // Looked up at the first triangle test (most `bunny` packets never reach one).
+        let cols = std::cell::OnceCell::new();
+        let cols = |kind| {
+            (kind == PrimKind::Triangle)
+                .then(|| cols.get_or_init(|| p.columns(&scene.triangles)).as_ref())
+                .flatten()
+        };
         let mut st = Closest {
             t_max,
             t_max_lanes: L::from_fn(|k| t_max[k]),
@@ -451,7 +494,7 @@ impl Bvh4 {
             if self.linear_kinds[k] {
                 let n = pool_len(scene, kind);
                 stats.prims += (n * p.active.count_ones() as usize) as u64;
-                st.leaf(scene, p, kind, 0..n, t_min, p.active);
+                st.leaf(scene, p, kind, 0..n, t_min, p.active, cols(kind));
             }
         }
         let Some(root) = self.root else {
@@ -481,6 +524,7 @@ impl Bvh4 {
                     start as usize..(start + count) as usize,
                     t_min,
                     lanes,
+                    cols(kind),
                 );
                 continue;
             }
@@ -562,6 +606,12 @@ impl Bvh4 {
     ) -> u32 {
         let mut remaining = lanes & p.active;
         let mut occluded = 0u32;
+        let cols = std::cell::OnceCell::new();
+        let cols = |kind| {
+            (kind == PrimKind::Triangle)
+                .then(|| cols.get_or_init(|| p.columns(&scene.triangles)).as_ref())
+                .flatten()
+        };
         // Lanes not tested get t_max = −∞ (no box or primitive test passes).
         let mut t_max: [f32; MAX_WIDTH] = std::array::from_fn(|k| {
             if remaining >> k & 1 != 0 {
@@ -581,7 +631,8 @@ impl Bvh4 {
                 if obj == object {
                     continue;
                 }
-                let (t, bits) = p.test_prim(scene, kind, i, t_min, t_max, lanes & !found);
+                let (t, bits) =
+                    p.test_prim(scene, kind, i, t_min, t_max, lanes & !found, cols(kind));
                 for k in set_lanes(bits) {
                     if t[k] < t_light[k] || id < id_light[k] {
                         found |= 1 << k;
