@@ -10,7 +10,7 @@ use super::linear::{self, PrimRay};
 use super::TraversalStats;
 use crate::geometry::spawn::gamma;
 use crate::geometry::sphere::{sphere_distance, SphereRay};
-use crate::geometry::triangle::WatertightRay;
+use crate::geometry::triangle::{Columns, WatertightRay};
 use crate::geometry::{Aabb, Hit, PrimKind, Ray};
 use crate::lanes::Lane;
 use crate::lanes::V3;
@@ -386,10 +386,11 @@ impl Closest {
         start: usize,
         n: usize,
         ray: &WatertightRay,
+        cols: &Columns,
         t_min: f32,
     ) {
         let tri = &scene.triangles;
-        let (t, mut mask) = tri.intersect4(start, n, ray, t_min, self.t_max);
+        let (t, mut mask) = tri.intersect4_in(cols, start, n, ray, t_min, self.t_max);
         while mask != 0 {
             let k = mask.trailing_zeros() as usize;
             mask &= mask - 1;
@@ -438,9 +439,10 @@ impl Closest {
                 }
             }
             PrimKind::Triangle => {
+                let cols = scene.triangles.columns(ray.triangle.axes);
                 while start < range.end {
                     let n = (range.end - start).min(4);
-                    self.triangles4(scene, start, n, &ray.triangle, t_min);
+                    self.triangles4(scene, start, n, &ray.triangle, &cols, t_min);
                     start += n;
                 }
             }
@@ -744,6 +746,8 @@ impl Bvh4 {
         let mut sp = 0;
         let (mut nodes, mut prims) = (0u64, 0u64);
         let mut code = root;
+        // The triangle columns in this ray's axis order, at the first triangle leaf.
+        let mut cols: Option<Columns> = None;
         'visit: loop {
             if code & LEAF == 0 {
                 nodes += 1;
@@ -793,8 +797,9 @@ impl Bvh4 {
                 let (kind, start, count) = decode_leaf(code);
                 prims += count as u64;
                 if kind == PrimKind::Triangle {
-                    let tri = consts.triangle();
-                    c.triangles4(scene, start as usize, count as usize, tri, t_min);
+                    let tri = *consts.triangle();
+                    let cols = cols.get_or_insert_with(|| scene.triangles.columns(tri.axes));
+                    c.triangles4(scene, start as usize, count as usize, &tri, cols, t_min);
                 } else {
                     let range = start as usize..(start + count) as usize;
                     c.range(scene, kind, range, &consts.prim(), t_min);

@@ -16,7 +16,7 @@ use super::TraversalStats;
 use crate::geometry::quad::quad_distance;
 use crate::geometry::sphere::sphere_distance;
 use crate::geometry::triangle::{
-    edge_functions, shear, watertight_distance, TrianglePool, WatertightRay,
+    edge_functions, shear, watertight_distance, Columns, TrianglePool, WatertightRay,
 };
 use crate::geometry::{keep_closest, Aabb, Hit, PrimKind, Ray};
 use crate::lanes::{set_lanes, Lane, Mask, V3};
@@ -204,12 +204,7 @@ impl<L: Lane> RayPacket<L> {
 
     /// The triangle columns in this packet's axis order, when its lanes share one.
     pub(crate) fn columns<'s>(&self, tri: &'s TrianglePool) -> Option<Columns<'s>> {
-        let [kx, ky, kz] = self.tri_axes?;
-        let len = tri.len();
-        let cols = [&tri.a, &tri.b, &tri.c].map(|p| [&p[kx][..], &p[ky][..], &p[kz][..]]);
-        let cols: [&[f32]; 9] = std::array::from_fn(|m| cols[m / 3][m % 3]);
-        assert!(cols.iter().all(|c| c.len() == len));
-        Some(Columns { cols, len })
+        self.tri_axes.map(|axes| tri.columns(axes))
     }
 
     /// The scalar constants of lane `k`, for a subtree it finishes alone.
@@ -344,9 +339,12 @@ impl<L: Lane> RayPacket<L> {
             }
             PrimKind::Triangle => match cols {
                 Some(cols) => {
-                    assert!(i < cols.len);
                     let vertex = |m: usize| {
-                        let v = [m, m + 1, m + 2].map(|m| L::splat(cols.at(m, i)));
+                        let v = [
+                            L::splat(cols.at(m, i)),
+                            L::splat(cols.at(m + 1, i)),
+                            L::splat(cols.at(m + 2, i)),
+                        ];
                         shear(v, self.tri_origin, self.tri_sx, self.tri_sy)
                     };
                     let (a, b, c) = (vertex(0), vertex(3), vertex(6));
@@ -374,26 +372,6 @@ impl<L: Lane> RayPacket<L> {
             }
         }
         (out, bits)
-    }
-}
-
-/// The triangle pool's nine vertex columns (a, b, c; x, y, z each) in a packet's axis
-/// order, looked up once a traversal instead of at every triangle test: the per-test
-/// axis checks, pointer loads and bounds checks were a third of a packet's triangle
-/// test (callgrind, `examples/packet_probe`).
-pub(crate) struct Columns<'s> {
-    cols: [&'s [f32]; 9],
-    len: usize,
-}
-
-impl<'s> Columns<'s> {
-    /// Column `m` at triangle `i` (`i < len`, checked by the caller).
-    #[inline(always)]
-    fn at(&self, m: usize, i: usize) -> f32 {
-        debug_assert!(i < self.len);
-        // SAFETY: every column has `len` elements (checked in `RayPacket::columns`) and
-        // the caller checked `i < len`.
-        unsafe { *self.cols[m].get_unchecked(i) }
     }
 }
 

@@ -105,23 +105,47 @@ fn load4_tail(values: &[f32], start: usize, n: usize) -> Vec4 {
     Vec4::from_array(a)
 }
 
-/// One vertex of four triangles, read in the ray's axis order and sheared.
-#[inline(always)]
-fn load_sheared(
-    p: &[Vec<f32>; 3],
-    [kx, ky, kz]: [usize; 3],
-    start: usize,
-    n: usize,
-    o: [Vec4; 3],
-    sx: Vec4,
-    sy: Vec4,
-) -> [Vec4; 3] {
-    let v = [
-        load4(&p[kx], start, n),
-        load4(&p[ky], start, n),
-        load4(&p[kz], start, n),
-    ];
-    shear(v, o, sx, sy)
+/// The pool's nine vertex columns (a, b, c; each in a ray's axis order kx, ky, kz),
+/// resolved once a ray or packet instead of at every test: through the pool each read
+/// costs an axis check, two pointer loads and a bounds check (callgrind: a third of a
+/// packet's triangle test).
+#[derive(Clone, Copy, Debug)]
+pub struct Columns<'s> {
+    cols: [&'s [f32]; 9],
+    len: usize,
+}
+
+impl<'s> Columns<'s> {
+    /// Coordinate `m` (vertex `m / 3`, axis `m % 3` of the order) of triangle `i`.
+    #[inline(always)]
+    pub fn at(&self, m: usize, i: usize) -> f32 {
+        assert!(i < self.len);
+        // SAFETY: every column has `len` elements (`TrianglePool::columns`).
+        unsafe { *self.cols[m].get_unchecked(i) }
+    }
+
+    /// `load4` of column `m`.
+    #[inline(always)]
+    fn load4(&self, m: usize, start: usize, n: usize) -> Vec4 {
+        if start + 4 <= self.len {
+            // SAFETY: start + 4 ≤ len, the length of every column.
+            Vec4::from_slice(unsafe { self.cols[m].get_unchecked(start..start + 4) })
+        } else {
+            load4_tail(self.cols[m], start, n)
+        }
+    }
+}
+
+impl TrianglePool {
+    /// The vertex columns in the axis order `axes` (a permutation of 0, 1, 2).
+    #[inline]
+    pub fn columns(&self, [kx, ky, kz]: [usize; 3]) -> Columns<'_> {
+        let len = self.len();
+        let pools = [&self.a, &self.b, &self.c];
+        let cols: [&[f32]; 9] = std::array::from_fn(|m| &pools[m / 3][[kx, ky, kz][m % 3]][..]);
+        assert!(cols.iter().all(|c| c.len() == len));
+        Columns { cols, len }
+    }
 }
 
 impl TrianglePool {
@@ -142,16 +166,59 @@ impl TrianglePool {
         t_min: f32,
         t_max: f32,
     ) -> ([f32; 4], u32) {
+        let [kx, ky, kz] = ray.axes;
+        let (a, b, c) = (&self.a, &self.b, &self.c);
+        let v = [
+            load4(&a[kx], start, n),
+            load4(&a[ky], start, n),
+            load4(&a[kz], start, n),
+            load4(&b[kx], start, n),
+            load4(&b[ky], start, n),
+            load4(&b[kz], start, n),
+            load4(&c[kx], start, n),
+            load4(&c[ky], start, n),
+            load4(&c[kz], start, n),
+        ];
+        self.intersect4_loaded(v, start, n, ray, t_min, t_max)
+    }
+
+    /// `intersect4` through the columns of `ray.axes` (`columns`), for callers that test
+    /// many leaves with one ray.
+    #[inline(always)]
+    pub fn intersect4_in(
+        &self,
+        cols: &Columns,
+        start: usize,
+        n: usize,
+        ray: &WatertightRay,
+        t_min: f32,
+        t_max: f32,
+    ) -> ([f32; 4], u32) {
+        let v = std::array::from_fn(|m| cols.load4(m, start, n));
+        self.intersect4_loaded(v, start, n, ray, t_min, t_max)
+    }
+
+    /// `intersect4` of the nine coordinate lanes `v` (a, b, c; each in the ray's axis
+    /// order) of triangles `start..start + n`.
+    #[inline(always)]
+    fn intersect4_loaded(
+        &self,
+        v: [Vec4; 9],
+        start: usize,
+        n: usize,
+        ray: &WatertightRay,
+        t_min: f32,
+        t_max: f32,
+    ) -> ([f32; 4], u32) {
         let o = ray.origin.map(Vec4::splat);
         let (sx, sy, sz) = (
             Vec4::splat(ray.sx),
             Vec4::splat(ray.sy),
             Vec4::splat(ray.sz),
         );
-        let axes = ray.axes;
-        let a = load_sheared(&self.a, axes, start, n, o, sx, sy);
-        let b = load_sheared(&self.b, axes, start, n, o, sx, sy);
-        let c = load_sheared(&self.c, axes, start, n, o, sx, sy);
+        let a = shear([v[0], v[1], v[2]], o, sx, sy);
+        let b = shear([v[3], v[4], v[5]], o, sx, sy);
+        let c = shear([v[6], v[7], v[8]], o, sx, sy);
         let [u, v, w] = edge_functions(a, b, c);
         let zero = Vec4::ZERO;
         let lanes = (1u32 << n) - 1;
