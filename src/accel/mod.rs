@@ -159,7 +159,7 @@ impl Accel {
         match self {
             Accel::Linear(l) => std::array::from_fn(|k| {
                 if p.active >> k & 1 != 0 {
-                    l.closest_hit(scene, &p.rays[k], t_min, f32::INFINITY, stats)
+                    l.closest_hit(scene, &p.ray(k), t_min, f32::INFINITY, stats)
                 } else {
                     None
                 }
@@ -184,7 +184,7 @@ impl Accel {
             Accel::Linear(_) => {
                 let mut visible = 0;
                 for k in set_lanes(lanes) {
-                    if self.light_visible(scene, &p.rays[k], t_min, light, stats) {
+                    if self.light_visible(scene, &p.ray(k), t_min, light, stats) {
                         visible |= 1 << k;
                     }
                 }
@@ -204,7 +204,7 @@ impl Accel {
                     }
                 } else {
                     for k in set_lanes(lanes) {
-                        if let Some((t, id)) = light.nearest_hit(&p.rays[k], t_min) {
+                        if let Some((t, id)) = light.nearest_hit(&p.ray(k), t_min) {
                             t_light[k] = t;
                             id_light[k] = id;
                             reach |= 1 << k;

@@ -36,7 +36,6 @@ pub struct RayPacket<L: Lane> {
     /// Lanes holding a ray (bit i: lane i). Other lanes copy an active ray and are never
     /// reported.
     pub active: u32,
-    pub rays: [Ray; MAX_WIDTH],
     origin: V3<L>,
     dir: V3<L>,
     inv_near: [L; 3],
@@ -89,10 +88,6 @@ impl<L: Lane> RayPacket<L> {
     /// finite ray (inactive lanes are tested but never reported).
     pub fn from_lanes(origin: V3<L>, dir: V3<L>, active: u32) -> Self {
         let w = L::WIDTH;
-        let all: [Ray; MAX_WIDTH] = std::array::from_fn(|i| {
-            let i = i.min(w - 1);
-            Ray::new(origin.lane(i), dir.lane(i))
-        });
         let zero = L::splat(0.0);
         let lanes = (1u32 << w) - 1;
         let uniform = |bits: u32| match bits {
@@ -138,20 +133,12 @@ impl<L: Lane> RayPacket<L> {
                 d[ky] / d[kz],
                 one / d[kz],
             ),
-            None => {
-                let t: [WatertightRay; MAX_WIDTH] =
-                    std::array::from_fn(|i| WatertightRay::new(&all[i]));
-                (
-                    std::array::from_fn(|a| L::from_fn(|i| t[i].origin[a])),
-                    L::from_fn(|i| t[i].sx),
-                    L::from_fn(|i| t[i].sy),
-                    L::from_fn(|i| t[i].sz),
-                )
-            }
+            // Unused: without a common axis order every lane's triangle test is the
+            // scalar one (`test_prim`).
+            None => ([zero; 3], zero, zero, zero),
         };
         Self {
             active,
-            rays: all,
             origin,
             dir,
             inv_near: inv.map(|x| x * near_scale),
@@ -207,10 +194,24 @@ impl<L: Lane> RayPacket<L> {
         self.tri_axes.map(|axes| tri.columns(axes))
     }
 
+    /// The ray of lane `k` (an inactive lane holds a copy of an active one).
+    #[inline]
+    pub fn ray(&self, k: usize) -> Ray {
+        Ray::new(self.origin.lane(k), self.dir.lane(k))
+    }
+
+    /// The rays of every lane (`ray`); lanes past the width repeat the last one. Built on
+    /// demand: transposing the lanes into rays for every packet was a third of
+    /// `from_lanes` (callgrind).
+    pub fn rays(&self) -> [Ray; MAX_WIDTH] {
+        std::array::from_fn(|i| self.ray(i.min(L::WIDTH - 1)))
+    }
+
     /// The scalar constants of lane `k`, for a subtree it finishes alone.
     #[inline]
     fn scalar(&self, k: usize) -> (PrimRay, BoxRay) {
-        (PrimRay::new(&self.rays[k]), BoxRay::new(&self.rays[k]))
+        let ray = self.ray(k);
+        (PrimRay::new(&ray), BoxRay::new(&ray))
     }
 
     /// The lanes whose ray meets `b` in `[t_min, t_max]` (the traversal's conservative
@@ -365,7 +366,7 @@ impl<L: Lane> RayPacket<L> {
         }
         for k in set_lanes(redo) {
             let tri = &scene.triangles;
-            let ray = WatertightRay::new(&self.rays[k]);
+            let ray = WatertightRay::new(&self.ray(k));
             if let Some(tk) = tri.intersect(i, &ray, t_min, t_max[k]) {
                 out[k] = tk;
                 bits |= 1 << k;

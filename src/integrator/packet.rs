@@ -105,7 +105,7 @@ impl Tracer<'_> {
         // `trace` multiplies what it returns by the path throughput, which is one at the
         // camera vertex: keep the multiplication so the bits are the scalar ones.
         let weight = |c: Vec3| if camera { Vec3::ONE * c } else { c };
-        let rays = &packet.rays;
+        let rays = &packet.rays();
         let hits = if self.specialize
             && packet.hits_box(&scene.bounds, T_MIN, f32::INFINITY) & active == 0
         {
