@@ -13,7 +13,7 @@ pub use packet::footprint;
 use crate::accel::packet::MAX_WIDTH;
 use crate::accel::{Accel, TraversalStats};
 use crate::geometry::spawn::{
-    planar_point, spawn_ray, sphere_point, sphere_point_lanes, ErrorPoint,
+    planar_point, planar_point_lanes, spawn_ray, sphere_point, sphere_point_lanes, ErrorPoint,
 };
 use crate::geometry::sphere::sphere_normal;
 use crate::geometry::{Hit, PrimKind, Ray};
@@ -205,17 +205,20 @@ impl<'a> Tracer<'a> {
             }
             PrimKind::Triangle => {
                 let [a, b, c] = scene.triangles.vertices(i);
-                let (u, v) = (b - a, c - a);
-                let n = u.cross(v);
-                let p = planar_point(a, u, v, n / n.dot(n), on_ray);
-                (p, scene.triangles.normal(i))
+                let v = V3::<f32>::splat;
+                let (p, e, n) = triangle_point(v(a), v(b), v(c), v(on_ray));
+                let p = ErrorPoint {
+                    point: p.lane(0),
+                    error: e.lane(0),
+                };
+                (p, n.lane(0))
             }
         }
     }
 
     /// The surfaces of the hits of the lanes of `lanes` (each must have a hit), for rays
-    /// with lanes `origin`, `dir`: `surface`'s kernels over lanes. Sphere lanes are
-    /// computed lane-wise; quad and triangle lanes one at a time by the scalar code.
+    /// with lanes `origin`, `dir`: `surface`'s kernels over lanes. Sphere and triangle
+    /// lanes are computed lane-wise; quad lanes one at a time by the scalar code.
     pub fn surface_lanes<L: Lane>(
         &self,
         origin: V3<L>,
@@ -225,14 +228,16 @@ impl<'a> Tracer<'a> {
     ) -> SurfaceLanes<L> {
         let scene = self.scene;
         let mut t = [0.0; MAX_WIDTH];
-        let mut spheres = 0u32;
+        let (mut spheres, mut triangles) = (0u32, 0u32);
         let mut index = [0usize; MAX_WIDTH];
         for k in set_lanes(lanes) {
             let hit = hits[k].as_ref().expect("a shaded lane has a hit");
             t[k] = hit.t;
             index[k] = hit.index as usize;
-            if hit.kind == PrimKind::Sphere {
-                spheres |= 1 << k;
+            match hit.kind {
+                PrimKind::Sphere => spheres |= 1 << k,
+                PrimKind::Triangle => triangles |= 1 << k,
+                PrimKind::Quad => {}
             }
         }
         let on_ray = origin + dir.scale(L::from_fn(|k| t[k]));
@@ -258,7 +263,32 @@ impl<'a> Tracer<'a> {
             (point, error) = sphere_point_lanes(c, r, on_ray);
             outward = sphere_normal(c, r, point);
         }
-        let others = lanes & !spheres;
+        if triangles != 0 {
+            // Lanes of other kinds take the first triangle lane's triangle (replaced).
+            let first = index[triangles.trailing_zeros() as usize];
+            let i: [usize; MAX_WIDTH] = std::array::from_fn(|k| {
+                if triangles >> k & 1 != 0 {
+                    index[k]
+                } else {
+                    first
+                }
+            });
+            let pool = &scene.triangles;
+            let vertex = |p: &[Vec<f32>; 3]| {
+                V3::new(
+                    L::from_fn(|k| p[0][i[k]]),
+                    L::from_fn(|k| p[1][i[k]]),
+                    L::from_fn(|k| p[2][i[k]]),
+                )
+            };
+            let (p, e, n) =
+                triangle_point(vertex(&pool.a), vertex(&pool.b), vertex(&pool.c), on_ray);
+            let m = L::Mask::from_bits(triangles);
+            point = V3::select(m, p, point);
+            error = V3::select(m, e, error);
+            outward = V3::select(m, n, outward);
+        }
+        let others = lanes & !spheres & !triangles;
         if others != 0 {
             let mut p = [ErrorPoint {
                 point: Vec3::ZERO,
@@ -532,6 +562,27 @@ pub fn adds_nothing_lanes<L: Lane>(
 pub fn face_forward<L: Lane>(dir: V3<L>, outward: V3<L>) -> (V3<L>, L::Mask) {
     let front = dir.dot(outward).lt(L::splat(0.0));
     (V3::select(front, outward, -outward), front)
+}
+
+/// A triangle's hit point (`planar_point` with u = b − a, v = c − a, w = n / n·n),
+/// its error bound and its unit normal normalise(n), +y if n has no direction
+/// (`TrianglePool::normal`'s rule), n = u × v.
+#[inline(always)]
+pub fn triangle_point<L: Lane>(
+    a: V3<L>,
+    b: V3<L>,
+    c: V3<L>,
+    on_ray: V3<L>,
+) -> (V3<L>, V3<L>, V3<L>) {
+    let (u, v) = (b - a, c - a);
+    let n = u.cross(v);
+    let nn = n.dot(n);
+    let w = V3::new(n.x / nn, n.y / nn, n.z / nn);
+    let (p, e) = planar_point_lanes(a, u, v, w, on_ray);
+    // glam's `normalize_or(Vec3::Y)`.
+    let rcp = L::splat(1.0) / nn.sqrt();
+    let ok = rcp.abs().lt(L::splat(f32::INFINITY)) & rcp.gt(L::splat(0.0));
+    (p, e, V3::select(ok, n.scale(rcp), V3::splat(Vec3::Y)))
 }
 
 /// glam's `Vec3::normalize`, lane-wise: v · (1/√(v·v)).
@@ -830,6 +881,29 @@ mod tests {
             }
         }
         check::<K>("sphere_point, sphere_normal");
+    }
+
+    #[test]
+    fn triangle_point_lanes_match_the_scalar_kernel() {
+        struct K;
+        impl Kernel for K {
+            const IN: usize = 12;
+            fn eval<L: Lane>(x: &[L]) -> Vec<L> {
+                let v = |i: usize| v3(&x[3 * i..]);
+                let (p, e, n) = triangle_point(v(0), v(1), v(2), v(3));
+                out(&[p, e, n])
+            }
+        }
+        check::<K>("triangle_point");
+        // The scalar surface's triangle normal is the pool's rule.
+        let n = triangle_point::<f32>(
+            V3::splat(Vec3::ZERO),
+            V3::splat(Vec3::X),
+            V3::splat(Vec3::Y),
+            V3::splat(Vec3::ZERO),
+        )
+        .2;
+        assert_eq!(n.lane(0), Vec3::Z);
     }
 
     #[test]
