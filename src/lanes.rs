@@ -13,7 +13,7 @@
 
 use glam::{BVec4A, Vec4};
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
-use wide::{f32x8, i32x8, CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, CmpNe};
+use wide::{f32x8, i32x8, CmpEq, CmpGe, CmpGt, CmpLe, CmpLt};
 
 /// Whether the 8-wide lanes run as one AVX register (else as two SSE halves).
 pub const AVX2: bool = cfg!(target_feature = "avx2");
@@ -65,6 +65,7 @@ pub trait Lane:
     fn gt(self, o: Self) -> Self::Mask;
     fn ge(self, o: Self) -> Self::Mask;
     fn eq(self, o: Self) -> Self::Mask;
+    /// `!=`: true where either lane is NaN.
     fn ne(self, o: Self) -> Self::Mask;
     /// `if self < o { self } else { o }` (a NaN yields `o`).
     fn min(self, o: Self) -> Self;
@@ -72,6 +73,42 @@ pub trait Lane:
     fn max(self, o: Self) -> Self;
     fn sqrt(self) -> Self;
     fn abs(self) -> Self;
+    /// −x, the sign bit flipped, as `f32`'s `-` (wide's `-` on `f32x8` is 0 − x, which
+    /// gives +0 for +0: use this in kernels that must match the scalar bits).
+    fn flip_sign(self) -> Self;
+    /// The float whose bit pattern is this one's plus `delta` as a wrapping integer, lane
+    /// by lane (a bit cast, an integer add, a bit cast).
+    fn add_bits(self, delta: i32) -> Self;
+    /// `f32::next_up`, lane by lane: the least float above (NaN and +∞ stay, ±0 goes to
+    /// the least positive subnormal, −f32::MAX from −∞). `f32` runs the std function; the
+    /// wider lanes step the bit pattern, +1 above zero and −1 below.
+    #[inline(always)]
+    fn next_up(self) -> Self {
+        let zero = Self::splat(0.0);
+        let step = Self::select(self.lt(zero), self.add_bits(-1), self.add_bits(1));
+        let step = Self::select(self.eq(zero), Self::splat(f32::from_bits(1)), step);
+        let keep = self.ne(self) | self.eq(Self::splat(f32::INFINITY));
+        Self::select(keep, self, step)
+    }
+    /// `f32::next_down`, lane by lane: the greatest float below (NaN and −∞ stay, ±0 goes
+    /// to the greatest negative subnormal, f32::MAX from +∞).
+    #[inline(always)]
+    fn next_down(self) -> Self {
+        let zero = Self::splat(0.0);
+        let step = Self::select(self.lt(zero), self.add_bits(1), self.add_bits(-1));
+        let step = Self::select(self.eq(zero), Self::splat(-f32::from_bits(1)), step);
+        let keep = self.ne(self) | self.eq(Self::splat(f32::NEG_INFINITY));
+        Self::select(keep, self, step)
+    }
+    /// `next_up` where `towards > 0`, `next_down` where `towards < 0`, else unchanged:
+    /// one step away from a surface along an offset (`spawn::spawn_origin`). `f32` runs
+    /// the branches (one std call at most); the wider lanes select between both steps.
+    #[inline(always)]
+    fn step_towards(self, towards: Self) -> Self {
+        let zero = Self::splat(0.0);
+        let down = Self::select(towards.lt(zero), self.next_down(), self);
+        Self::select(towards.gt(zero), self.next_up(), down)
+    }
     /// The smallest lane, for lanes that are not NaN (a NaN lane may or may not be
     /// skipped). A pairwise tree of `a < b ? a : b`, one `minss` each: `f32::min`'s
     /// NaN handling cost three more instructions per lane (callgrind, packet traversal).
@@ -175,6 +212,33 @@ impl Lane for f32 {
     fn abs(self) -> Self {
         f32::abs(self)
     }
+    #[inline(always)]
+    fn flip_sign(self) -> Self {
+        -self
+    }
+    #[inline(always)]
+    fn add_bits(self, delta: i32) -> Self {
+        f32::from_bits(self.to_bits().wrapping_add(delta as u32))
+    }
+    // The scalar reference: the std functions themselves.
+    #[inline(always)]
+    fn next_up(self) -> Self {
+        f32::next_up(self)
+    }
+    #[inline(always)]
+    fn next_down(self) -> Self {
+        f32::next_down(self)
+    }
+    #[inline(always)]
+    fn step_towards(self, towards: Self) -> Self {
+        if towards > 0.0 {
+            f32::next_up(self)
+        } else if towards < 0.0 {
+            f32::next_down(self)
+        } else {
+            self
+        }
+    }
 }
 
 impl Mask for BVec4A {
@@ -256,6 +320,35 @@ impl Lane for Vec4 {
     #[inline(always)]
     fn abs(self) -> Self {
         Vec4::abs(self)
+    }
+    // glam's `-` flips the sign bits (an xor with −0).
+    #[inline(always)]
+    fn flip_sign(self) -> Self {
+        -self
+    }
+    #[inline(always)]
+    fn add_bits(self, delta: i32) -> Self {
+        #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+        {
+            use std::arch::x86_64::{
+                __m128, _mm_add_epi32, _mm_castps_si128, _mm_castsi128_ps, _mm_set1_epi32,
+            };
+            let v: __m128 = self.into();
+            // SAFETY: SSE2 is enabled (cfg above); these are plain register operations.
+            let r = unsafe {
+                _mm_castsi128_ps(_mm_add_epi32(_mm_castps_si128(v), _mm_set1_epi32(delta)))
+            };
+            Vec4::from(r)
+        }
+        #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+        {
+            Vec4::new(
+                self.x.add_bits(delta),
+                self.y.add_bits(delta),
+                self.z.add_bits(delta),
+                self.w.add_bits(delta),
+            )
+        }
     }
 }
 
@@ -340,9 +433,11 @@ impl Lane for f32x8 {
     fn eq(self, o: Self) -> Mask8 {
         Mask8(self.cmp_eq(o))
     }
+    // Not `cmp_ne`: with AVX that is the ordered compare (false when a lane is NaN),
+    // without AVX the unordered one; `!=` of `f32` and glam's `cmpne` are true on NaN.
     #[inline(always)]
     fn ne(self, o: Self) -> Mask8 {
-        Mask8(self.cmp_ne(o))
+        Mask8(!self.cmp_eq(o))
     }
     // `fast_min`/`fast_max` are `vminps`/`vmaxps` (or SSE `minps`/`maxps` per half):
     // the rule above. (`wide`'s `min`/`max` return the other operand of a NaN instead.)
@@ -361,6 +456,15 @@ impl Lane for f32x8 {
     #[inline(always)]
     fn abs(self) -> Self {
         f32x8::abs(self)
+    }
+    #[inline(always)]
+    fn flip_sign(self) -> Self {
+        self ^ f32x8::splat(-0.0)
+    }
+    #[inline(always)]
+    fn add_bits(self, delta: i32) -> Self {
+        let bits = bytemuck::cast::<f32x8, i32x8>(self) + i32x8::splat(delta);
+        bytemuck::cast::<i32x8, f32x8>(bits)
     }
 }
 
@@ -417,6 +521,10 @@ impl<L: Lane> V3<L> {
         Self::new(self.x * s, self.y * s, self.z * s)
     }
     #[inline(always)]
+    pub fn abs(self) -> Self {
+        Self::new(self.x.abs(), self.y.abs(), self.z.abs())
+    }
+    #[inline(always)]
     pub fn select(m: L::Mask, a: Self, b: Self) -> Self {
         Self::new(
             L::select(m, a.x, b.x),
@@ -431,6 +539,15 @@ impl<L: Lane> Add for V3<L> {
     #[inline(always)]
     fn add(self, o: Self) -> Self {
         Self::new(self.x + o.x, self.y + o.y, self.z + o.z)
+    }
+}
+
+/// `Lane::flip_sign` per component (so −(+0) is −0 in every width).
+impl<L: Lane> Neg for V3<L> {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        Self::new(self.x.flip_sign(), self.y.flip_sign(), self.z.flip_sign())
     }
 }
 
@@ -459,9 +576,13 @@ mod tests {
             assert_eq!(min.lane(i).to_bits(), want_min.to_bits(), "min lane {i}");
             assert_eq!(max.lane(i).to_bits(), want_max.to_bits(), "max lane {i}");
         }
-        let m = a.lt(b);
+        let (lt, eq, ne, neg) = (a.lt(b), a.eq(b), a.ne(b), a.flip_sign());
         for i in 0..L::WIDTH {
-            assert_eq!(m.bits() >> i & 1 != 0, a.lane(i) < b.lane(i));
+            let (x, y) = (a.lane(i), b.lane(i));
+            assert_eq!(lt.bits() >> i & 1 != 0, x < y, "lt lane {i}");
+            assert_eq!(eq.bits() >> i & 1 != 0, x == y, "eq lane {i}");
+            assert_eq!(ne.bits() >> i & 1 != 0, x != y, "ne lane {i}");
+            assert_eq!(neg.lane(i).to_bits(), (-x).to_bits(), "flip_sign lane {i}");
         }
         let bits = 0b1010_0110 & ((1u32 << L::WIDTH) - 1);
         assert_eq!(L::Mask::from_bits(bits).bits(), bits);
@@ -500,6 +621,101 @@ mod tests {
         check_reduce_min::<f32>();
         check_reduce_min::<Vec4>();
         check_reduce_min::<f32x8>();
+    }
+
+    /// `next_up`/`next_down` of every width against the std functions, bit for bit, on
+    /// `xs` (eight at a time; the `f32` lane is the std function itself).
+    fn check_next(xs: &[u32]) {
+        fn check<L: Lane>(chunk: &[f32; 8]) {
+            for half in chunk.chunks(L::WIDTH) {
+                let v = L::from_fn(|i| half[i]);
+                let (up, down) = (v.next_up(), v.next_down());
+                // Towards +1, −1, 0, NaN, −0 and +∞ in turn.
+                let towards = [1.0, -1.0, 0.0, f32::NAN, -0.0, f32::INFINITY, -2.0, 3.0];
+                let t = L::from_fn(|i| towards[i]);
+                let step = v.step_towards(t);
+                for (i, &x) in half.iter().enumerate() {
+                    let w = L::WIDTH;
+                    let want = match towards[i] {
+                        o if o > 0.0 => x.next_up(),
+                        o if o < 0.0 => x.next_down(),
+                        _ => x,
+                    };
+                    assert_eq!(
+                        step.lane(i).to_bits(),
+                        want.to_bits(),
+                        "{w} step {x:e} {}",
+                        towards[i]
+                    );
+                    assert_eq!(
+                        up.lane(i).to_bits(),
+                        x.next_up().to_bits(),
+                        "{w} up {x:e} {:#x}",
+                        x.to_bits()
+                    );
+                    assert_eq!(
+                        down.lane(i).to_bits(),
+                        x.next_down().to_bits(),
+                        "{w} down {x:e} {:#x}",
+                        x.to_bits()
+                    );
+                }
+            }
+        }
+        for c in xs.chunks(8) {
+            let mut chunk = [0.0f32; 8];
+            for (i, &b) in c.iter().enumerate() {
+                chunk[i] = f32::from_bits(b);
+            }
+            check::<f32>(&chunk);
+            check::<Vec4>(&chunk);
+            check::<f32x8>(&chunk);
+        }
+    }
+
+    #[test]
+    fn next_up_and_down_match_std_at_the_edges() {
+        // ±0, subnormals, the normal boundary, one, MAX, ±∞, the NaN boundaries (quiet,
+        // signalling, negative), each with its neighbourhood.
+        let edges = [
+            0u32,
+            1,
+            2,
+            0x007f_fffe,
+            0x007f_ffff,
+            0x0080_0000,
+            0x0080_0001,
+            0x3f80_0000,
+            0x7f7f_ffff,
+            0x7f80_0000,
+            0x7f80_0001,
+            0x7fbf_ffff,
+            0x7fc0_0000,
+            0x7fff_ffff,
+        ];
+        let mut xs = Vec::new();
+        for e in edges {
+            for sign in [0, 0x8000_0000u32] {
+                for d in -64i32..=64 {
+                    xs.push((e as i32).wrapping_add(d) as u32 | sign);
+                }
+            }
+        }
+        check_next(&xs);
+    }
+
+    #[test]
+    fn next_up_and_down_match_std_on_a_sweep_of_all_floats() {
+        // Every 997th bit pattern (4.3 M floats, every exponent and both signs).
+        let xs: Vec<u32> = (0..=u32::MAX / 997).map(|i| i * 997).collect();
+        check_next(&xs);
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn next_up_and_down_match_std_on_random_bits(bits in proptest::collection::vec(proptest::prelude::any::<u32>(), 8)) {
+            check_next(&bits);
+        }
     }
 
     #[test]

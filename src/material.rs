@@ -4,6 +4,7 @@
 //! `phong_mirror` (albedo, shininess, index, ka, kd, ks), `diffuse` (albedo), `metal`
 //! (albedo, fuzz), `dielectric` (index), `light` (color, intensity).
 
+use crate::lanes::{Lane, V3};
 use glam::Vec3;
 
 /// Phong coefficients. The seed's defaults are ka = kd = ks = 0.5.
@@ -55,16 +56,29 @@ impl Material {
 /// r0 = ((1 − n) / (1 + n))².
 #[inline]
 pub fn schlick(cosine: f32, index: f32) -> f32 {
-    let r0 = (1.0 - index) / (1.0 + index);
+    schlick_lanes::<f32>(cosine, index)
+}
+
+/// `schlick` over lanes (the scalar one is this kernel at `f32`).
+#[inline(always)]
+pub fn schlick_lanes<L: Lane>(cosine: L, index: L) -> L {
+    let one = L::splat(1.0);
+    let r0 = (one - index) / (one + index);
     let r0 = r0 * r0;
-    let m = 1.0 - cosine;
-    r0 + (1.0 - r0) * (m * m * m * m * m)
+    let m = one - cosine;
+    r0 + (one - r0) * (m * m * m * m * m)
 }
 
 /// Mirror reflection of `d` about the unit normal `n`.
 #[inline]
 pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
-    d - n * (2.0 * d.dot(n))
+    reflect_lanes::<f32>(V3::splat(d), V3::splat(n)).lane(0)
+}
+
+/// `reflect` over lanes (the scalar one is this kernel at `f32`).
+#[inline(always)]
+pub fn reflect_lanes<L: Lane>(d: V3<L>, n: V3<L>) -> V3<L> {
+    d - n.scale(L::splat(2.0) * d.dot(n))
 }
 
 /// GLSL-style refraction of the unit `d` through the unit `n` (facing `d`) with relative

@@ -84,6 +84,32 @@ impl<L: Lane> RayPacket<L> {
         Self::from_lanes(origin, dir, active)
     }
 
+    /// A packet from rays in lanes of which only the lanes of `active` hold a ray (not
+    /// empty): the others get a copy of the first active lane, as `new` gives them.
+    #[inline]
+    pub fn from_active_lanes(origin: V3<L>, dir: V3<L>, active: u32) -> Self {
+        debug_assert!(active != 0 && active < (1 << L::WIDTH));
+        if active == (1 << L::WIDTH) - 1 {
+            return Self::from_lanes(origin, dir, active);
+        }
+        let first = active.trailing_zeros() as usize;
+        let m = L::Mask::from_bits(active);
+        let fill = |v: V3<L>| V3::select(m, v, V3::splat(v.lane(first)));
+        Self::from_lanes(fill(origin), fill(dir), active)
+    }
+
+    /// The rays' origins, lane by lane.
+    #[inline]
+    pub fn origin(&self) -> V3<L> {
+        self.origin
+    }
+
+    /// The rays' directions, lane by lane.
+    #[inline]
+    pub fn dir(&self) -> V3<L> {
+        self.dir
+    }
+
     /// A packet from rays already in lanes; every lane, active or not, must hold a
     /// finite ray (inactive lanes are tested but never reported).
     pub fn from_lanes(origin: V3<L>, dir: V3<L>, active: u32) -> Self {
@@ -133,8 +159,8 @@ impl<L: Lane> RayPacket<L> {
                 d[ky] / d[kz],
                 one / d[kz],
             ),
-            // Unused: without a common axis order every lane's triangle test is the
-            // scalar one (`test_prim`).
+            // Lanes that disagree on the axes are tested one at a time by the scalar
+            // test (`test_prim`), which makes its own constants: none needed here.
             None => ([zero; 3], zero, zero, zero),
         };
         Self {

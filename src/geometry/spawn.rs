@@ -6,6 +6,7 @@
 //! epsilon eats them).
 
 use super::Ray;
+use crate::lanes::{Lane, V3};
 use glam::Vec3;
 
 /// γₙ = nε / (1 − nε), ε = 2⁻²⁴: the bound on the relative error of n f32 operations.
@@ -25,13 +26,24 @@ pub struct ErrorPoint {
 /// The point of a sphere that a ray hit, pushed back onto the sphere: C + f · r/|f|.
 #[inline]
 pub fn sphere_point(center: Vec3, radius: f32, hit: Vec3) -> ErrorPoint {
-    let f = hit - center;
-    let len = f.length();
-    let f = if len > 0.0 { f * (radius / len) } else { f };
+    let (point, error) = sphere_point_lanes::<f32>(V3::splat(center), radius, V3::splat(hit));
     ErrorPoint {
-        point: center + f,
-        error: (f.abs() + center.abs()) * gamma(6),
+        point: point.lane(0),
+        error: error.lane(0),
     }
+}
+
+/// `sphere_point` over lanes (the scalar one is this kernel at `f32`): the points and
+/// their error bounds.
+#[inline(always)]
+pub fn sphere_point_lanes<L: Lane>(center: V3<L>, radius: L, hit: V3<L>) -> (V3<L>, V3<L>) {
+    let f = hit - center;
+    let len = f.dot(f).sqrt();
+    let f = V3::select(len.gt(L::splat(0.0)), f.scale(radius / len), f);
+    (
+        center + f,
+        (f.abs() + center.abs()).scale(L::splat(gamma(6))),
+    )
 }
 
 /// The point of a plane through `q` spanned by `u`, `v` (a quad, or a triangle with
@@ -39,34 +51,65 @@ pub fn sphere_point(center: Vec3, radius: f32, hit: Vec3) -> ErrorPoint {
 /// longer depends on the ray's length. `w` = (u × v) / |u × v|².
 #[inline]
 pub fn planar_point(q: Vec3, u: Vec3, v: Vec3, w: Vec3, hit: Vec3) -> ErrorPoint {
+    let (point, error) = planar_point_lanes::<f32>(
+        V3::splat(q),
+        V3::splat(u),
+        V3::splat(v),
+        V3::splat(w),
+        V3::splat(hit),
+    );
+    ErrorPoint {
+        point: point.lane(0),
+        error: error.lane(0),
+    }
+}
+
+/// `planar_point` over lanes (the scalar one is this kernel at `f32`).
+#[inline(always)]
+pub fn planar_point_lanes<L: Lane>(
+    q: V3<L>,
+    u: V3<L>,
+    v: V3<L>,
+    w: V3<L>,
+    hit: V3<L>,
+) -> (V3<L>, V3<L>) {
     let hp = hit - q;
     let alpha = w.dot(hp.cross(v));
     let beta = w.dot(u.cross(hp));
-    let (au, bv) = (u * alpha, v * beta);
-    ErrorPoint {
-        point: q + au + bv,
-        error: (q.abs() + au.abs() + bv.abs()) * gamma(7),
-    }
+    let (au, bv) = (u.scale(alpha), v.scale(beta));
+    (
+        q + au + bv,
+        (q.abs() + au.abs() + bv.abs()).scale(L::splat(gamma(7))),
+    )
 }
 
 /// A ray from `p` along `dir` whose origin is moved off the surface with unit normal `n`
 /// by the error bound, to the side `dir` points to, and rounded away from the surface.
 #[inline]
 pub fn spawn_ray(p: &ErrorPoint, n: Vec3, dir: Vec3) -> Ray {
-    let d = n.abs().dot(p.error);
-    let mut offset = n * d;
-    if dir.dot(n) < 0.0 {
-        offset = -offset;
-    }
-    let mut o = p.point + offset;
-    for i in 0..3 {
-        if offset[i] > 0.0 {
-            o[i] = o[i].next_up();
-        } else if offset[i] < 0.0 {
-            o[i] = o[i].next_down();
-        }
-    }
-    Ray::new(o, dir)
+    let o = spawn_origin::<f32>(
+        V3::splat(p.point),
+        V3::splat(p.error),
+        V3::splat(n),
+        V3::splat(dir),
+    );
+    Ray::new(o.lane(0), dir)
+}
+
+/// `spawn_ray`'s origin over lanes (the scalar one is this kernel at `f32`): `point`
+/// with error bound `error`, unit normal `n`, direction `dir`.
+#[inline(always)]
+pub fn spawn_origin<L: Lane>(point: V3<L>, error: V3<L>, n: V3<L>, dir: V3<L>) -> V3<L> {
+    let zero = L::splat(0.0);
+    let d = n.abs().dot(error);
+    let offset = n.scale(d);
+    let offset = V3::select(dir.dot(n).lt(zero), -offset, offset);
+    let o = point + offset;
+    V3::new(
+        o.x.step_towards(offset.x),
+        o.y.step_towards(offset.y),
+        o.z.step_towards(offset.z),
+    )
 }
 
 #[cfg(test)]

@@ -19,6 +19,15 @@ pub struct SpherePool {
     pub object: Vec<u32>,
 }
 
+/// `SpherePool::normal` over lanes (the scalar one is this kernel at `f32`): (P − C) / r,
+/// +y where r is not positive.
+#[inline(always)]
+pub fn sphere_normal<L: Lane>(center: V3<L>, radius: L, p: V3<L>) -> V3<L> {
+    let d = p - center;
+    let n = V3::new(d.x / radius, d.y / radius, d.z / radius);
+    V3::select(radius.gt(L::splat(0.0)), n, V3::splat(Vec3::Y))
+}
+
 impl SpherePool {
     pub fn len(&self) -> usize {
         self.radius.len()
@@ -60,12 +69,7 @@ impl SpherePool {
     /// A zero-radius sphere has no normal; it returns +y rather than NaN.
     #[inline]
     pub fn normal(&self, i: usize, p: Vec3) -> Vec3 {
-        let r = self.radius[i];
-        if r > 0.0 {
-            (p - self.center(i)) / r
-        } else {
-            Vec3::Y
-        }
+        sphere_normal::<f32>(V3::splat(self.center(i)), self.radius[i], V3::splat(p)).lane(0)
     }
 
     /// Distance to sphere `i` in `[t_min, t_max]`: the near root if it is in range, else the
@@ -200,7 +204,8 @@ pub fn sphere_distance<L: Lane>(
     let perp = f - dir.scale(b * inv_a);
     let quarter_disc = a * (radius * radius - perp.dot(perp));
     let root = quarter_disc.sqrt();
-    let q = L::select(b.ge(zero), -(b + root), -(b - root));
+    // `flip_sign`, not `-`: wide's `-` on f32x8 is 0 − x (+0 for +0).
+    let q = L::select(b.ge(zero), (b + root).flip_sign(), (b - root).flip_sign());
     let x0 = c / q;
     let x1 = q * inv_a;
     let ordered = x0.le(x1);

@@ -12,10 +12,15 @@ pub use packet::footprint;
 
 use crate::accel::packet::MAX_WIDTH;
 use crate::accel::{Accel, TraversalStats};
-use crate::geometry::spawn::{planar_point, spawn_ray, sphere_point, ErrorPoint};
+use crate::geometry::spawn::{
+    planar_point, planar_point_lanes, spawn_ray, sphere_point, sphere_point_lanes, ErrorPoint,
+};
+use crate::geometry::sphere::sphere_normal;
 use crate::geometry::{Hit, PrimKind, Ray};
-use crate::lanes::{Lane, Mask, V3};
-use crate::material::{random_unit_vector, reflect, refract, schlick, Material, Phong};
+use crate::lanes::{set_lanes, Lane, Mask, V3};
+use crate::material::{
+    random_unit_vector, reflect, reflect_lanes, refract, schlick, schlick_lanes, Material, Phong,
+};
 use crate::rng::{slot, SampleKey, Sampler};
 use crate::scene::{LightShape, Scene};
 use glam::Vec3;
@@ -99,6 +104,34 @@ pub struct Surface {
     pub object: u32,
 }
 
+/// The surfaces of a packet's lanes (`Tracer::surface_lanes`).
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceLanes<L> {
+    pub point: V3<L>,
+    /// The points' error bounds.
+    pub error: V3<L>,
+    /// Unit normals facing the rays.
+    pub normal: V3<L>,
+    /// The lanes whose ray arrived on the outward side.
+    pub front: u32,
+}
+
+impl<L: Lane> SurfaceLanes<L> {
+    /// Lane `k` as a scalar `Surface` of `object`.
+    #[inline]
+    pub fn lane(&self, k: usize, object: u32) -> Surface {
+        Surface {
+            point: ErrorPoint {
+                point: self.point.lane(k),
+                error: self.error.lane(k),
+            },
+            normal: self.normal.lane(k),
+            front_face: self.front >> k & 1 != 0,
+            object,
+        }
+    }
+}
+
 /// The scalar tracer over one scene and its acceleration structure.
 pub struct Tracer<'a> {
     pub scene: &'a Scene,
@@ -144,10 +177,23 @@ impl<'a> Tracer<'a> {
 
     /// Position, facing normal and side of a hit.
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
-        let on_ray = ray.at(hit.t);
+        let (point, outward) = self.point_and_outward(hit, ray.at(hit.t));
+        let (normal, front_face) = face_forward::<f32>(V3::splat(ray.dir), V3::splat(outward));
+        Surface {
+            point,
+            normal: normal.lane(0),
+            front_face,
+            object: hit.object,
+        }
+    }
+
+    /// The hit point of `hit` rebuilt from its primitive (`on_ray` is the ray's point at
+    /// the hit's t), and the primitive's outward unit normal there.
+    #[inline]
+    fn point_and_outward(&self, hit: &Hit, on_ray: Vec3) -> (ErrorPoint, Vec3) {
         let i = hit.index as usize;
         let scene = self.scene;
-        let (point, outward) = match hit.kind {
+        match hit.kind {
             PrimKind::Sphere => {
                 let (c, r) = (scene.spheres.center(i), scene.spheres.radius[i]);
                 let p = sphere_point(c, r, on_ray);
@@ -159,18 +205,111 @@ impl<'a> Tracer<'a> {
             }
             PrimKind::Triangle => {
                 let [a, b, c] = scene.triangles.vertices(i);
-                let (u, v) = (b - a, c - a);
-                let n = u.cross(v);
-                let p = planar_point(a, u, v, n / n.dot(n), on_ray);
-                (p, scene.triangles.normal(i))
+                let v = V3::<f32>::splat;
+                let (p, e, n) = triangle_point(v(a), v(b), v(c), v(on_ray));
+                let p = ErrorPoint {
+                    point: p.lane(0),
+                    error: e.lane(0),
+                };
+                (p, n.lane(0))
             }
-        };
-        let front_face = ray.dir.dot(outward) < 0.0;
-        Surface {
+        }
+    }
+
+    /// The surfaces of the hits of the lanes of `lanes` (each must have a hit), for rays
+    /// with lanes `origin`, `dir`: `surface`'s kernels over lanes. Sphere and triangle
+    /// lanes are computed lane-wise; quad lanes one at a time by the scalar code.
+    pub fn surface_lanes<L: Lane>(
+        &self,
+        origin: V3<L>,
+        dir: V3<L>,
+        hits: &[Option<Hit>; MAX_WIDTH],
+        lanes: u32,
+    ) -> SurfaceLanes<L> {
+        let scene = self.scene;
+        let mut t = [0.0; MAX_WIDTH];
+        let (mut spheres, mut triangles) = (0u32, 0u32);
+        let mut index = [0usize; MAX_WIDTH];
+        for k in set_lanes(lanes) {
+            let hit = hits[k].as_ref().expect("a shaded lane has a hit");
+            t[k] = hit.t;
+            index[k] = hit.index as usize;
+            match hit.kind {
+                PrimKind::Sphere => spheres |= 1 << k,
+                PrimKind::Triangle => triangles |= 1 << k,
+                PrimKind::Quad => {}
+            }
+        }
+        let on_ray = origin + dir.scale(L::from_fn(|k| t[k]));
+        let zero = V3::splat(Vec3::ZERO);
+        let (mut point, mut error, mut outward) = (zero, zero, zero);
+        if spheres != 0 {
+            // Lanes of other kinds take the first sphere lane's sphere (replaced below).
+            let first = index[spheres.trailing_zeros() as usize];
+            let i: [usize; MAX_WIDTH] = std::array::from_fn(|k| {
+                if spheres >> k & 1 != 0 {
+                    index[k]
+                } else {
+                    first
+                }
+            });
+            let pool = &scene.spheres;
+            let c = V3::new(
+                L::from_fn(|k| pool.cx[i[k]]),
+                L::from_fn(|k| pool.cy[i[k]]),
+                L::from_fn(|k| pool.cz[i[k]]),
+            );
+            let r = L::from_fn(|k| pool.radius[i[k]]);
+            (point, error) = sphere_point_lanes(c, r, on_ray);
+            outward = sphere_normal(c, r, point);
+        }
+        if triangles != 0 {
+            // Lanes of other kinds take the first triangle lane's triangle (replaced).
+            let first = index[triangles.trailing_zeros() as usize];
+            let i: [usize; MAX_WIDTH] = std::array::from_fn(|k| {
+                if triangles >> k & 1 != 0 {
+                    index[k]
+                } else {
+                    first
+                }
+            });
+            let pool = &scene.triangles;
+            let vertex = |p: &[Vec<f32>; 3]| {
+                V3::new(
+                    L::from_fn(|k| p[0][i[k]]),
+                    L::from_fn(|k| p[1][i[k]]),
+                    L::from_fn(|k| p[2][i[k]]),
+                )
+            };
+            let (p, e, n) =
+                triangle_point(vertex(&pool.a), vertex(&pool.b), vertex(&pool.c), on_ray);
+            let m = L::Mask::from_bits(triangles);
+            point = V3::select(m, p, point);
+            error = V3::select(m, e, error);
+            outward = V3::select(m, n, outward);
+        }
+        let others = lanes & !spheres & !triangles;
+        if others != 0 {
+            let mut p = [ErrorPoint {
+                point: Vec3::ZERO,
+                error: Vec3::ZERO,
+            }; MAX_WIDTH];
+            let mut n = [Vec3::ZERO; MAX_WIDTH];
+            for k in set_lanes(others) {
+                let hit = hits[k].as_ref().expect("a shaded lane has a hit");
+                (p[k], n[k]) = self.point_and_outward(hit, on_ray.lane(k));
+            }
+            let m = L::Mask::from_bits(others);
+            point = V3::select(m, V3::from_fn(|k| p[k].point), point);
+            error = V3::select(m, V3::from_fn(|k| p[k].error), error);
+            outward = V3::select(m, V3::from_fn(|k| n[k]), outward);
+        }
+        let (normal, front) = face_forward(dir, outward);
+        SurfaceLanes {
             point,
-            normal: if front_face { outward } else { -outward },
-            front_face,
-            object: hit.object,
+            error,
+            normal,
+            front: front.bits(),
         }
     }
 
@@ -269,16 +408,23 @@ impl<'a> Tracer<'a> {
         li: usize,
         k: u32,
     ) -> Option<Vec3> {
+        let target = self.light_target(key, vertex, li, k);
+        let (l, valid) = direction_to::<f32>(V3::splat(target), V3::splat(s.point.point));
+        valid.then(|| l.lane(0))
+    }
+
+    /// Sample `k` of light `li`: a point light's centre, or a random point of an area
+    /// light.
+    #[inline]
+    pub fn light_target(&self, key: SampleKey, vertex: u32, li: usize, k: u32) -> Vec3 {
         let light = &self.scene.lights[li];
-        let target = match light.shape {
+        match light.shape {
             LightShape::Point { center, .. } => center,
             _ => {
                 let u = |c| key.uniform(vertex, slot::light(li as u32, k, c));
                 light.sample(u(0), u(1), u(2))
             }
-        };
-        let l = (target - s.point.point).normalize_or_zero();
-        (l != Vec3::ZERO).then_some(l)
+        }
     }
 
     /// Shadow ray `k` of light `li` from a surface: the direction to the light sample
@@ -333,11 +479,11 @@ impl<'a> Tracer<'a> {
         counts: &mut RayCounts,
     ) -> Vec3 {
         let local = self.phong(m, ray, s, key, vertex, counts);
-        let reflected_ray = spawn_ray(&s.point, s.normal, reflect(ray.dir, s.normal).normalize());
+        let (d, n) = (V3::splat(ray.dir), V3::splat(s.normal));
+        let reflected_ray = spawn_ray(&s.point, s.normal, mirror_direction::<f32>(d, n).lane(0));
         counts.secondary += 1;
         let reflected = self.evaluate_once(&reflected_ray, key, vertex + 1, budget - 1, counts);
-        let cosine = (-ray.dir.dot(s.normal)).min(1.0);
-        let f = schlick(cosine, index);
+        let f = mirror_fresnel::<f32>(d, n, index);
         local * (1.0 - f) + reflected * f
     }
 
@@ -379,12 +525,91 @@ impl<'a> Tracer<'a> {
 /// gives the same bits.
 #[inline]
 pub fn adds_nothing(normal: Vec3, l: Vec3, view: Vec3, shininess: f32) -> bool {
+    let (normal, l, view) = (V3::splat(normal), V3::splat(l), V3::splat(view));
+    adds_nothing_lanes::<f32>(normal, l, view, &[shininess; MAX_WIDTH], 1) != 0
+}
+
+/// `adds_nothing` over lanes (the scalar one is this kernel at `f32`): the lanes of
+/// `lanes` whose sample adds nothing. `powf` is the same scalar call per lane, made only
+/// for lanes with N·L ≤ 0.
+#[inline(always)]
+pub fn adds_nothing_lanes<L: Lane>(
+    normal: V3<L>,
+    l: V3<L>,
+    view: V3<L>,
+    shininess: &[f32; MAX_WIDTH],
+    lanes: u32,
+) -> u32 {
     let n_dot_l = normal.dot(l);
-    if n_dot_l > 0.0 {
-        return false;
+    let unlit = (!n_dot_l.gt(L::splat(0.0))).bits() & lanes;
+    if unlit == 0 {
+        return 0;
     }
-    let r = (normal * (2.0 * n_dot_l) - l).normalize_or_zero();
-    r.dot(view).max(0.0).powf(shininess) == 0.0
+    let r = normalize_or_zero(normal.scale(L::splat(2.0) * n_dot_l) - l);
+    let r_dot_v = r.dot(view);
+    let mut nothing = 0;
+    for k in set_lanes(unlit) {
+        if r_dot_v.lane(k).max(0.0).powf(shininess[k]) == 0.0 {
+            nothing |= 1 << k;
+        }
+    }
+    nothing
+}
+
+/// The unit normals facing the rays along `dir` and the lanes that arrived on the side
+/// the outward normal points to (`Tracer::surface`'s rule).
+#[inline(always)]
+pub fn face_forward<L: Lane>(dir: V3<L>, outward: V3<L>) -> (V3<L>, L::Mask) {
+    let front = dir.dot(outward).lt(L::splat(0.0));
+    (V3::select(front, outward, -outward), front)
+}
+
+/// A triangle's hit point (`planar_point` with u = b − a, v = c − a, w = n / n·n),
+/// its error bound and its unit normal normalise(n), +y if n has no direction
+/// (`TrianglePool::normal`'s rule), n = u × v.
+#[inline(always)]
+pub fn triangle_point<L: Lane>(
+    a: V3<L>,
+    b: V3<L>,
+    c: V3<L>,
+    on_ray: V3<L>,
+) -> (V3<L>, V3<L>, V3<L>) {
+    let (u, v) = (b - a, c - a);
+    let n = u.cross(v);
+    let nn = n.dot(n);
+    let w = V3::new(n.x / nn, n.y / nn, n.z / nn);
+    let (p, e) = planar_point_lanes(a, u, v, w, on_ray);
+    // glam's `normalize_or(Vec3::Y)`.
+    let rcp = L::splat(1.0) / nn.sqrt();
+    let ok = rcp.abs().lt(L::splat(f32::INFINITY)) & rcp.gt(L::splat(0.0));
+    (p, e, V3::select(ok, n.scale(rcp), V3::splat(Vec3::Y)))
+}
+
+/// glam's `Vec3::normalize`, lane-wise: v · (1/√(v·v)).
+#[inline(always)]
+pub fn normalize<L: Lane>(v: V3<L>) -> V3<L> {
+    v.scale(L::splat(1.0) / v.dot(v).sqrt())
+}
+
+/// The unit direction from `point` to `target` and the lanes where it is not zero
+/// (`Tracer::light_direction`'s rule).
+#[inline(always)]
+pub fn direction_to<L: Lane>(target: V3<L>, point: V3<L>) -> (V3<L>, L::Mask) {
+    let l = normalize_or_zero(target - point);
+    let zero = L::splat(0.0);
+    (l, l.x.ne(zero) | l.y.ne(zero) | l.z.ne(zero))
+}
+
+/// A PhongMirror's reflection direction: `reflect(d, n)` normalised.
+#[inline(always)]
+pub fn mirror_direction<L: Lane>(d: V3<L>, n: V3<L>) -> V3<L> {
+    normalize(reflect_lanes(d, n))
+}
+
+/// A PhongMirror's Fresnel weight: Schlick at cos = min(−d·n, 1).
+#[inline(always)]
+pub fn mirror_fresnel<L: Lane>(d: V3<L>, n: V3<L>, index: L) -> L {
+    schlick_lanes(d.dot(n).flip_sign().min(L::splat(1.0)), index)
 }
 
 /// The Phong parameters of each lane.
@@ -540,6 +765,210 @@ fn dielectric_direction(ray: &Ray, s: &Surface, index: f32, key: SampleKey, vert
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::spawn::{planar_point_lanes, spawn_origin};
+    use glam::Vec4;
+    use wide::f32x8;
+
+    /// A shading kernel over lanes, with `IN` lane inputs and its outputs as lanes.
+    trait Kernel {
+        const IN: usize;
+        fn eval<L: Lane>(x: &[L]) -> Vec<L>;
+    }
+
+    /// `IN` × 8·`chunks` inputs: mostly uniform in [−2, 2), one in four an edge value
+    /// (±0, ±1, a subnormal, huge, ±∞, NaN), so selects and special cases are hit.
+    fn inputs(n_in: usize, chunks: usize) -> Vec<Vec<f32>> {
+        let edges = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            1e-40,
+            -1e-40,
+            1e30,
+            -1e30,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            f32::MIN_POSITIVE,
+        ];
+        let mut state = 0x9e37_79b9u32;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state
+        };
+        (0..n_in)
+            .map(|_| {
+                (0..8 * chunks)
+                    .map(|_| {
+                        let r = next();
+                        if r % 4 == 0 {
+                            edges[(r >> 8) as usize % edges.len()]
+                        } else {
+                            (r >> 8) as f32 / (1 << 24) as f32 * 4.0 - 2.0
+                        }
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Every output lane of `K` at widths 4 and 8 has the bits of the scalar kernel on
+    /// that lane's inputs (any NaN matching any NaN).
+    fn check<K: Kernel>(name: &str) {
+        let chunks = 2000;
+        let x = inputs(K::IN, chunks);
+        let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+        for c in 0..chunks {
+            let at = |i: usize| -> Vec<f32> { x.iter().map(|v| v[8 * c + i]).collect() };
+            let scalar: Vec<Vec<f32>> = (0..8).map(|i| K::eval::<f32>(&at(i))).collect();
+            let eight = K::eval::<f32x8>(
+                &x.iter()
+                    .map(|v| f32x8::from_fn(|i| v[8 * c + i]))
+                    .collect::<Vec<_>>(),
+            );
+            for half in 0..2 {
+                let four = K::eval::<Vec4>(
+                    &x.iter()
+                        .map(|v| <Vec4 as Lane>::from_fn(|i| v[8 * c + 4 * half + i]))
+                        .collect::<Vec<_>>(),
+                );
+                for (o, (w4, w8)) in four.iter().zip(&eight).enumerate() {
+                    for i in 0..4 {
+                        let k = 4 * half + i;
+                        let want = scalar[k][o];
+                        assert!(
+                            same(w4.lane(i), want) && same(w8.lane(k), want),
+                            "{name}: output {o}, lane {k}, inputs {:?}: scalar {want:e}, \
+                             4 wide {:e}, 8 wide {:e}",
+                            at(k),
+                            w4.lane(i),
+                            w8.lane(k),
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    fn v3<L: Lane>(x: &[L]) -> V3<L> {
+        V3::new(x[0], x[1], x[2])
+    }
+
+    fn out<L: Lane>(vs: &[V3<L>]) -> Vec<L> {
+        vs.iter().flat_map(|v| [v.x, v.y, v.z]).collect()
+    }
+
+    fn mask<L: Lane>(m: L::Mask) -> L {
+        L::select(m, L::splat(1.0), L::splat(0.0))
+    }
+
+    fn bits<L: Lane>(b: u32) -> L {
+        L::from_fn(|i| (b >> i & 1) as f32)
+    }
+
+    #[test]
+    fn sphere_point_and_normal_lanes_match_the_scalar_kernels() {
+        struct K;
+        impl Kernel for K {
+            const IN: usize = 7;
+            fn eval<L: Lane>(x: &[L]) -> Vec<L> {
+                let (c, r, hit) = (v3(x), x[3], v3(&x[4..]));
+                let (p, e) = sphere_point_lanes(c, r, hit);
+                out(&[p, e, sphere_normal(c, r, p)])
+            }
+        }
+        check::<K>("sphere_point, sphere_normal");
+    }
+
+    #[test]
+    fn triangle_point_lanes_match_the_scalar_kernel() {
+        struct K;
+        impl Kernel for K {
+            const IN: usize = 12;
+            fn eval<L: Lane>(x: &[L]) -> Vec<L> {
+                let v = |i: usize| v3(&x[3 * i..]);
+                let (p, e, n) = triangle_point(v(0), v(1), v(2), v(3));
+                out(&[p, e, n])
+            }
+        }
+        check::<K>("triangle_point");
+        // The scalar surface's triangle normal is the pool's rule.
+        let n = triangle_point::<f32>(
+            V3::splat(Vec3::ZERO),
+            V3::splat(Vec3::X),
+            V3::splat(Vec3::Y),
+            V3::splat(Vec3::ZERO),
+        )
+        .2;
+        assert_eq!(n.lane(0), Vec3::Z);
+    }
+
+    #[test]
+    fn planar_point_lanes_match_the_scalar_kernel() {
+        struct K;
+        impl Kernel for K {
+            const IN: usize = 15;
+            fn eval<L: Lane>(x: &[L]) -> Vec<L> {
+                let v = |i: usize| v3(&x[3 * i..]);
+                let (p, e) = planar_point_lanes(v(0), v(1), v(2), v(3), v(4));
+                out(&[p, e])
+            }
+        }
+        check::<K>("planar_point");
+    }
+
+    #[test]
+    fn spawn_origin_lanes_match_the_scalar_kernel() {
+        struct K;
+        impl Kernel for K {
+            const IN: usize = 12;
+            fn eval<L: Lane>(x: &[L]) -> Vec<L> {
+                let v = |i: usize| v3(&x[3 * i..]);
+                // Error bounds are small and not negative, as the hit points give them.
+                let e = v(1);
+                let small = L::splat(1e-6);
+                let error = V3::new(e.x.abs() * small, e.y.abs() * small, e.z.abs() * small);
+                out(&[spawn_origin(v(0), error, v(2), v(3))])
+            }
+        }
+        check::<K>("spawn_origin");
+        // The scalar `spawn_ray` is the kernel at f32: its origin moves off the surface.
+        let p = ErrorPoint {
+            point: Vec3::new(0.5, 0.0, -0.0),
+            error: Vec3::new(1e-7, 0.0, 1e-7),
+        };
+        let r = spawn_ray(&p, Vec3::Z, Vec3::new(0.0, 0.6, 0.8));
+        assert_eq!(r.origin.x, 0.5);
+        assert!(r.origin.z > 0.0);
+    }
+
+    #[test]
+    fn facing_light_and_mirror_lanes_match_the_scalar_kernels() {
+        struct K;
+        impl Kernel for K {
+            const IN: usize = 10;
+            fn eval<L: Lane>(x: &[L]) -> Vec<L> {
+                let (a, b) = (v3(x), v3(&x[3..]));
+                let (n, front) = face_forward(a, b);
+                let (l, valid) = direction_to(a, b);
+                let index = x[6].abs();
+                let mut o = out(&[n, l, normalize(a), mirror_direction(a, b)]);
+                o.extend([mask::<L>(front), mask::<L>(valid)]);
+                o.push(mirror_fresnel(a, b, index));
+                o.push(schlick_lanes(x[7], index));
+                let shininess: [f32; MAX_WIDTH] =
+                    std::array::from_fn(|i| x[8].lane(i.min(L::WIDTH - 1)).abs() * 500.0);
+                let view = v3(&x[7..]);
+                let lanes = (1u32 << L::WIDTH) - 1;
+                o.push(bits::<L>(adds_nothing_lanes(a, b, view, &shininess, lanes)));
+                o
+            }
+        }
+        check::<K>("face_forward, direction_to, mirror, schlick, adds_nothing");
+    }
 
     #[test]
     fn dielectric_at_normal_incidence_passes_straight_through() {

@@ -3,20 +3,27 @@
 //! An 8-wide packet covers 4x2 pixels (a 4-wide one 2x2), all at the same sample index.
 //! Camera rays, shadow rays (one packet per light sample) and PhongMirror reflections
 //! travel as packets through `Accel::closest_hit_packet` / `light_visible_packet`, whose
-//! per-lane answers are the scalar ones. Shading runs per lane through the scalar code
-//! (`Tracer::surface`, `phong_with`, `scatter`), fed with the packet's hits and
-//! visibilities, and path-traced bounces leave the packet for `Tracer::trace_from`. So
-//! every lane computes exactly what the scalar tracer computes for its pixel: the image
-//! is the same bits at every width (tests/packets.rs).
+//! per-lane answers are the scalar ones. Shading runs over lanes through the kernels the
+//! scalar tracer runs at `f32` (`Tracer::surface_lanes`, `direction_to`,
+//! `adds_nothing_lanes`, `spawn_origin`, `phong_lanes`, `mirror_direction`,
+//! `mirror_fresnel`), and the rays they make go straight into the next packet
+//! (`RayPacket::from_active_lanes`); quad and triangle hit points are rebuilt lane by
+//! lane, and path-traced bounces leave the packet for `Tracer::trace_from`. So every
+//! lane computes exactly what the scalar tracer computes for its pixel: the image is the
+//! same bits at every width (tests/packets.rs).
 
-use super::{adds_nothing, scatter, PhongLanes, RayCounts, Surface, Tracer, T_MIN};
+use super::{
+    adds_nothing_lanes, direction_to, mirror_direction, mirror_fresnel, scatter, PhongLanes,
+    RayCounts, Tracer, T_MIN,
+};
 use crate::accel::packet::{RayPacket, MAX_WIDTH};
-use crate::geometry::spawn::spawn_ray;
+use crate::geometry::spawn::{spawn_origin, spawn_ray};
 use crate::geometry::Ray;
 use crate::lanes::V3;
-use crate::lanes::{set_lanes, Lane};
-use crate::material::{reflect, schlick, Material, Phong};
+use crate::lanes::{set_lanes, Lane, Mask};
+use crate::material::{Material, Phong};
 use crate::rng::{keys_lanes, slot, uniform_lanes, SampleKey, SamplerKind, MAX_LIGHT_SAMPLES};
+use crate::scene::LightShape;
 use glam::Vec3;
 
 /// The pixels a packet of `width` lanes covers: 4x2 for 8 lanes, 2x2 for 4, 1x1 for 1.
@@ -27,11 +34,6 @@ pub const fn footprint(width: usize) -> (u32, u32) {
         _ => (1, 1),
     }
 }
-
-const NO_RAY: Ray = Ray {
-    origin: Vec3::ZERO,
-    dir: Vec3::X,
-};
 
 impl Tracer<'_> {
     /// Camera sample `sample` of the pixels of a packet whose lane 0 is pixel (x0, y0):
@@ -105,7 +107,7 @@ impl Tracer<'_> {
         // `trace` multiplies what it returns by the path throughput, which is one at the
         // camera vertex: keep the multiplication so the bits are the scalar ones.
         let weight = |c: Vec3| if camera { Vec3::ONE * c } else { c };
-        let rays = &packet.rays();
+        let (origin, dir) = (packet.origin(), packet.dir());
         let hits = if self.specialize
             && packet.hits_box(&scene.bounds, T_MIN, f32::INFINITY) & active == 0
         {
@@ -116,48 +118,50 @@ impl Tracer<'_> {
             self.accel
                 .closest_hit_packet(scene, &packet, T_MIN, &mut counts.traversal)
         };
-        let mut surfaces: [Option<Surface>; MAX_WIDTH] = [None; MAX_WIDTH];
         let mut phong_lanes = 0u32;
         let mut mirror_lanes = 0u32;
+        let mut path_lanes = 0u32;
+        let mut mirror_index = [0.0f32; MAX_WIDTH];
         for k in set_lanes(active) {
             let Some(hit) = hits[k] else {
                 out[k] = weight(scene.background);
                 continue;
             };
-            let s = self.surface(&rays[k], &hit);
-            surfaces[k] = Some(s);
-            let material = scene.material_of(hit.object);
-            match *material {
+            match *scene.material_of(hit.object) {
                 Material::Light { color, .. } => out[k] = weight(color),
                 Material::Phong(_) => phong_lanes |= 1 << k,
-                Material::PhongMirror { .. } => {
+                Material::PhongMirror { index, .. } => {
                     phong_lanes |= 1 << k;
                     mirror_lanes |= 1 << k;
+                    mirror_index[k] = index;
                 }
                 Material::Diffuse { albedo } | Material::Metal { albedo, .. } if !camera => {
                     out[k] = albedo
                 }
                 Material::Dielectric { .. } if !camera => out[k] = Vec3::ONE,
-                _ => {
-                    // A path-traced bounce: on alone, one ray at a time.
-                    out[k] = match scatter(material, &rays[k], &s, keys[k], vertex) {
-                        Some((attenuation, dir)) => {
-                            let throughput = Vec3::ONE * attenuation;
-                            let next = spawn_ray(&s.point, s.normal, dir);
-                            counts.secondary += 1;
-                            self.trace_from(
-                                next,
-                                keys[k],
-                                throughput,
-                                vertex + 1,
-                                budget - 1,
-                                counts,
-                            )
-                        }
-                        None => Vec3::ZERO,
-                    };
-                }
+                _ => path_lanes |= 1 << k,
             }
+        }
+        if phong_lanes | path_lanes == 0 {
+            return out;
+        }
+        // The surfaces, lane-wise.
+        let s = self.surface_lanes::<L>(origin, dir, &hits, phong_lanes | path_lanes);
+        for k in set_lanes(path_lanes) {
+            // A path-traced bounce: on alone, one ray at a time.
+            let hit = hits[k].expect("a path-traced lane has a hit");
+            let material = scene.material_of(hit.object);
+            let surface = s.lane(k, hit.object);
+            let ray = Ray::new(origin.lane(k), dir.lane(k));
+            out[k] = match scatter(material, &ray, &surface, keys[k], vertex) {
+                Some((attenuation, next_dir)) => {
+                    let throughput = Vec3::ONE * attenuation;
+                    let next = spawn_ray(&surface.point, surface.normal, next_dir);
+                    counts.secondary += 1;
+                    self.trace_from(next, keys[k], throughput, vertex + 1, budget - 1, counts)
+                }
+                None => Vec3::ZERO,
+            };
         }
         if phong_lanes == 0 {
             return out;
@@ -174,45 +178,51 @@ impl Tracer<'_> {
                 }
                 _ => &unused,
             });
+        let view = -dir;
         // Shadow rays: one packet per light sample, over the lanes that shade with Phong.
-        // Per sample: the lanes that have a direction, its lanes' directions and the
+        // Per sample: the lanes that have a direction, the lanes' directions and the
         // lanes that see the light.
         let n = scene.lights.len() * MAX_LIGHT_SAMPLES as usize;
-        let mut on_stack = [(0u32, [Vec3::ZERO; MAX_WIDTH], 0u32); 16];
+        let none = (0u32, V3::splat(Vec3::ZERO), 0u32);
+        let mut on_stack = [none; 16];
         let mut on_heap = Vec::new();
-        let samples: &mut [(u32, [Vec3; MAX_WIDTH], u32)] = if n <= on_stack.len() {
+        let samples: &mut [(u32, V3<L>, u32)] = if n <= on_stack.len() {
             &mut on_stack[..n]
         } else {
-            on_heap.resize(n, (0, [Vec3::ZERO; MAX_WIDTH], 0));
+            on_heap.resize(n, none);
             &mut on_heap
         };
         for (li, light) in scene.lights.iter().enumerate() {
             for j in 0..light.samples() {
                 let (valid, dirs, visible) =
                     &mut samples[li * MAX_LIGHT_SAMPLES as usize + j as usize];
-                let mut shadow = [NO_RAY; MAX_WIDTH];
-                let mut traced = 0u32;
-                for k in set_lanes(phong_lanes) {
-                    let s = surfaces[k].as_ref().expect("a Phong lane has a surface");
-                    if let Some(l) = self.light_direction(s, keys[k], vertex, li, j) {
-                        dirs[k] = l;
-                        *valid |= 1 << k;
-                        if self.specialize
-                            && adds_nothing(s.normal, l, -rays[k].dir, materials.shininess[k])
-                        {
-                            counts.shadow_culled += 1;
-                            continue;
+                let target = match light.shape {
+                    LightShape::Point { center, .. } => V3::splat(center),
+                    _ => V3::from_fn(|k| {
+                        if phong_lanes >> k & 1 != 0 {
+                            self.light_target(keys[k], vertex, li, j)
+                        } else {
+                            Vec3::ZERO
                         }
-                        shadow[k] = spawn_ray(&s.point, s.normal, l);
-                        traced |= 1 << k;
-                    }
+                    }),
+                };
+                let (l, ok) = direction_to(target, s.point);
+                *valid = ok.bits() & phong_lanes;
+                *dirs = l;
+                let mut traced = *valid;
+                if self.specialize {
+                    let culled =
+                        adds_nothing_lanes(s.normal, l, view, &materials.shininess, traced);
+                    counts.shadow_culled += culled.count_ones() as u64;
+                    traced &= !culled;
                 }
                 if traced == 0 {
                     continue;
                 }
                 counts.shadow += traced.count_ones() as u64;
                 counts.shadow_packets.record(traced);
-                let p = RayPacket::<L>::new(&shadow, traced);
+                let o = spawn_origin(s.point, s.error, s.normal, l);
+                let p = RayPacket::<L>::from_active_lanes(o, l, traced);
                 *visible = self.accel.light_visible_packet(
                     scene,
                     &p,
@@ -224,34 +234,24 @@ impl Tracer<'_> {
             }
         }
         // Phong over the lanes, the same kernel as the scalar tracer's.
-        let normal = V3::from_fn(|k| surfaces[k].map_or(Vec3::Y, |s| s.normal));
-        let view = V3::from_fn(|k| -rays[k].dir);
-        let colour = super::phong_lanes(&materials, scene, normal, view, |li, j| {
-            let (valid, dirs, visible) = &samples[li * MAX_LIGHT_SAMPLES as usize + j as usize];
-            (valid & visible, V3::from_fn(|k| dirs[k]))
+        let local = super::phong_lanes(&materials, scene, s.normal, view, |li, j| {
+            let (valid, dirs, visible) = samples[li * MAX_LIGHT_SAMPLES as usize + j as usize];
+            (valid & visible, dirs)
         });
-        let mut local = [Vec3::ZERO; MAX_WIDTH];
-        for k in set_lanes(phong_lanes) {
-            local[k] = colour.lane(k);
-            if mirror_lanes >> k & 1 == 0 {
-                out[k] = weight(local[k]);
-            }
+        for k in set_lanes(phong_lanes & !mirror_lanes) {
+            out[k] = weight(local.lane(k));
         }
         if mirror_lanes == 0 {
             return out;
         }
 
         // PhongMirror: the reflections as one packet, then the Schlick mix.
-        let mut reflected_rays = [NO_RAY; MAX_WIDTH];
-        for k in set_lanes(mirror_lanes) {
-            let s = surfaces[k].as_ref().expect("a mirror lane has a surface");
-            let dir = reflect(rays[k].dir, s.normal).normalize();
-            reflected_rays[k] = spawn_ray(&s.point, s.normal, dir);
-        }
+        let reflected_dir = mirror_direction(dir, s.normal);
+        let reflected_origin = spawn_origin(s.point, s.error, s.normal, reflected_dir);
         counts.secondary += mirror_lanes.count_ones() as u64;
         counts.mirror_packets.record(mirror_lanes);
         let reflected = self.shade_packet::<L>(
-            RayPacket::new(&reflected_rays, mirror_lanes),
+            RayPacket::from_active_lanes(reflected_origin, reflected_dir, mirror_lanes),
             mirror_lanes,
             keys,
             vertex + 1,
@@ -259,15 +259,11 @@ impl Tracer<'_> {
             false,
             counts,
         );
+        let f = mirror_fresnel(dir, s.normal, L::from_fn(|k| mirror_index[k]));
+        let reflected = V3::from_fn(|k| reflected[k]);
+        let mixed = local.scale(L::splat(1.0) - f) + reflected.scale(f);
         for k in set_lanes(mirror_lanes) {
-            let s = surfaces[k].as_ref().expect("a mirror lane has a surface");
-            let hit = hits[k].expect("a mirror lane has a hit");
-            let Material::PhongMirror { index, .. } = *scene.material_of(hit.object) else {
-                unreachable!("only PhongMirror lanes reflect")
-            };
-            let cosine = (-rays[k].dir.dot(s.normal)).min(1.0);
-            let f = schlick(cosine, index);
-            out[k] = weight(local[k] * (1.0 - f) + reflected[k] * f);
+            out[k] = weight(mixed.lane(k));
         }
         out
     }
