@@ -16,7 +16,7 @@ use super::TraversalStats;
 use crate::geometry::quad::quad_distance;
 use crate::geometry::sphere::sphere_distance;
 use crate::geometry::triangle::{
-    edge_functions, shear, watertight_distance, Columns, TrianglePool, WatertightRay,
+    edge_functions, inside_edges, shear, watertight_distance, Columns, TrianglePool, WatertightRay,
 };
 use crate::geometry::{keep_closest, Aabb, Hit, PrimKind, Ray};
 use crate::lanes::{set_lanes, Lane, Mask, V3};
@@ -378,6 +378,10 @@ impl<L: Lane> RayPacket<L> {
                     let [u, v, w] = edge_functions(a, b, c);
                     let zero = L::splat(0.0);
                     let exact_zero = (u.eq(zero) | v.eq(zero) | w.eq(zero)).bits();
+                    if (inside_edges([u, v, w]).bits() | exact_zero) & lanes == 0 {
+                        // No lane inside the edges: no distance (and no division) needed.
+                        return ([0.0; MAX_WIDTH], 0);
+                    }
                     let (t, hit) =
                         watertight_distance([u, v, w], a, b, c, self.tri_sz, t_min_l, t_max_l);
                     (t, hit.bits() & !exact_zero, exact_zero)

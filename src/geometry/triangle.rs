@@ -223,6 +223,10 @@ impl TrianglePool {
         let zero = Vec4::ZERO;
         let lanes = (1u32 << n) - 1;
         let exact_zero = (u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero)).bitmask() & lanes;
+        if inside_edges([u, v, w]).bitmask() & lanes == 0 && exact_zero == 0 {
+            // No lane inside the edges: no distance (and no division) needed.
+            return ([0.0; 4], 0);
+        }
         let (t, hit) = watertight_distance(
             [u, v, w],
             a,
@@ -416,6 +420,15 @@ pub fn edge_functions_f64(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> [f32; 3] {
     ]
 }
 
+/// The lanes whose edge functions are all of one sign (edges inclusive): the only lanes
+/// `watertight_distance` can report. Testing it first lets a leaf test skip the
+/// distance, and its division, when no lane is inside (most triangles of a leaf).
+#[inline(always)]
+pub fn inside_edges<L: Lane>([u, v, w]: [L; 3]) -> L::Mask {
+    let zero = L::splat(0.0);
+    !((u.lt(zero) | v.lt(zero) | w.lt(zero)) & (u.gt(zero) | v.gt(zero) | w.gt(zero)))
+}
+
 /// Distance and hit mask from the edge functions: all of one sign (edges inclusive),
 /// a non-zero determinant and t in `[t_min, t_max]`.
 #[allow(clippy::too_many_arguments)]
@@ -430,10 +443,9 @@ pub fn watertight_distance<L: Lane>(
     t_max: L,
 ) -> (L, L::Mask) {
     let zero = L::splat(0.0);
-    let mixed = (u.lt(zero) | v.lt(zero) | w.lt(zero)) & (u.gt(zero) | v.gt(zero) | w.gt(zero));
     let det = u + v + w;
     let t = (u * (sz * a[2]) + v * (sz * b[2]) + w * (sz * c[2])) / det;
-    let hit = !mixed & det.ne(zero) & t.ge(t_min) & t.le(t_max);
+    let hit = inside_edges([u, v, w]) & det.ne(zero) & t.ge(t_min) & t.le(t_max);
     (t, hit)
 }
 
