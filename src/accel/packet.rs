@@ -21,6 +21,7 @@ use crate::geometry::triangle::{
 use crate::geometry::{keep_closest, Aabb, Hit, PrimKind, Ray};
 use crate::lanes::{set_lanes, Lane, Mask, V3};
 use crate::scene::Scene;
+use std::cell::OnceCell;
 use std::mem::MaybeUninit;
 
 /// The widest packet.
@@ -215,22 +216,10 @@ impl<L: Lane> RayPacket<L> {
         (t, hit.bits() & lanes)
     }
 
-    /// The triangle columns in this packet's axis order, when its lanes share one.
-    pub(crate) fn columns<'s>(&self, tri: &'s TrianglePool) -> Option<Columns<'s>> {
-        self.tri_axes.map(|axes| tri.columns(axes))
-    }
-
     /// The ray of lane `k` (an inactive lane holds a copy of an active one).
     #[inline]
     pub fn ray(&self, k: usize) -> Ray {
         Ray::new(self.origin.lane(k), self.dir.lane(k))
-    }
-
-    /// The rays of every lane (`ray`); lanes past the width repeat the last one. Built on
-    /// demand: transposing the lanes into rays for every packet was a third of
-    /// `from_lanes` (callgrind).
-    pub fn rays(&self) -> [Ray; MAX_WIDTH] {
-        std::array::from_fn(|i| self.ray(i.min(L::WIDTH - 1)))
     }
 
     /// The scalar constants of lane `k`, for a subtree it finishes alone.
@@ -406,6 +395,37 @@ impl<L: Lane> RayPacket<L> {
     }
 }
 
+/// A packet's triangle columns (`triangle::Columns`, in its axis order when its lanes
+/// share one), looked up at the first triangle test: most `bunny` packets never reach
+/// one.
+struct LazyColumns<'a, L: Lane> {
+    packet: &'a RayPacket<L>,
+    tri: &'a TrianglePool,
+    cell: OnceCell<Option<Columns<'a>>>,
+}
+
+impl<'a, L: Lane> LazyColumns<'a, L> {
+    fn new(packet: &'a RayPacket<L>, tri: &'a TrianglePool) -> Self {
+        Self {
+            packet,
+            tri,
+            cell: OnceCell::new(),
+        }
+    }
+
+    /// The columns for a test of `kind` (`None` for other kinds, or when the lanes
+    /// order the axes differently).
+    #[inline(always)]
+    fn get(&self, kind: PrimKind) -> Option<&Columns<'a>> {
+        if kind != PrimKind::Triangle {
+            return None;
+        }
+        self.cell
+            .get_or_init(|| self.packet.tri_axes.map(|axes| self.tri.columns(axes)))
+            .as_ref()
+    }
+}
+
 /// Pool data of a primitive for a `Hit`.
 #[inline]
 fn ids(scene: &Scene, kind: PrimKind, i: usize) -> (u32, u32) {
@@ -487,13 +507,7 @@ impl Bvh4 {
                 f32::NEG_INFINITY
             }
         });
-        // Looked up at the first triangle test (most `bunny` packets never reach one).
-        let cols = std::cell::OnceCell::new();
-        let cols = |kind| {
-            (kind == PrimKind::Triangle)
-                .then(|| cols.get_or_init(|| p.columns(&scene.triangles)).as_ref())
-                .flatten()
-        };
+        let cols = LazyColumns::new(p, &scene.triangles);
         let mut st = Closest {
             t_max,
             t_max_lanes: L::from_fn(|k| t_max[k]),
@@ -503,7 +517,7 @@ impl Bvh4 {
             if self.linear_kinds[k] {
                 let n = pool_len(scene, kind);
                 stats.prims += (n * p.active.count_ones() as usize) as u64;
-                st.leaf(scene, p, kind, 0..n, t_min, p.active, cols(kind));
+                st.leaf(scene, p, kind, 0..n, t_min, p.active, cols.get(kind));
             }
         }
         let Some(root) = self.root else {
@@ -533,7 +547,7 @@ impl Bvh4 {
                     start as usize..(start + count) as usize,
                     t_min,
                     lanes,
-                    cols(kind),
+                    cols.get(kind),
                 );
                 continue;
             }
@@ -615,12 +629,7 @@ impl Bvh4 {
     ) -> u32 {
         let mut remaining = lanes & p.active;
         let mut occluded = 0u32;
-        let cols = std::cell::OnceCell::new();
-        let cols = |kind| {
-            (kind == PrimKind::Triangle)
-                .then(|| cols.get_or_init(|| p.columns(&scene.triangles)).as_ref())
-                .flatten()
-        };
+        let cols = LazyColumns::new(p, &scene.triangles);
         // Lanes not tested get t_max = −∞ (no box or primitive test passes).
         let mut t_max: [f32; MAX_WIDTH] = std::array::from_fn(|k| {
             if remaining >> k & 1 != 0 {
@@ -641,7 +650,7 @@ impl Bvh4 {
                     continue;
                 }
                 let (t, bits) =
-                    p.test_prim(scene, kind, i, t_min, t_max, lanes & !found, cols(kind));
+                    p.test_prim(scene, kind, i, t_min, t_max, lanes & !found, cols.get(kind));
                 for k in set_lanes(bits) {
                     if t[k] < t_light[k] || id < id_light[k] {
                         found |= 1 << k;
