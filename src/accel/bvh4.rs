@@ -765,34 +765,38 @@ impl Bvh4 {
                     let e = entry.to_array();
                     let j = rest.trailing_zeros() as usize;
                     if rest & (rest - 1) == 0 {
-                        // Two: push the farther.
-                        let (near, far) = if e[j] < e[i] { (j, i) } else { (i, j) };
-                        stack[sp].write((node.child[far], e[far]));
+                        // Two: push the farther. Which is nearer is a coin toss for the
+                        // branch predictor, so it is a select, not a branch.
+                        let (ci, cj) = (node.child[i], node.child[j]);
+                        let swap = e[j] < e[i];
+                        let near = if swap { cj } else { ci };
+                        let far = ci ^ cj ^ near;
+                        let far_e = if swap { e[i] } else { e[j] };
+                        stack[sp].write((far, far_e));
                         sp += 1;
-                        code = node.child[near];
+                        code = near;
                         continue 'visit;
                     }
-                    // Three or four: sort farthest first, push all but the nearest.
-                    let mut hits = [(0u32, 0f32); 4];
-                    let mut k = 0;
-                    let mut m = mask;
-                    while m != 0 {
-                        let i = m.trailing_zeros() as usize;
-                        m &= m - 1;
-                        let d = e[i];
-                        let mut j = k;
-                        while j > 0 && hits[j - 1].1 < d {
-                            hits[j] = hits[j - 1];
-                            j -= 1;
+                    // Three or four: sort nearest first, push all but the nearest
+                    // (farthest first). Branch-free: each key is the entry distance's
+                    // bits (positive floats order as their bits) with the slot in the
+                    // low two bits, a missed slot `u32::MAX`, and a five-exchange
+                    // sorting network orders them. The dropped bits only change the
+                    // order of near-equal entries, never what is found.
+                    let keys = sort4([0, 1, 2, 3].map(|s| {
+                        if mask >> s & 1 != 0 {
+                            e[s].to_bits() & !3 | s as u32
+                        } else {
+                            u32::MAX
                         }
-                        hits[j] = (node.child[i], d);
-                        k += 1;
-                    }
-                    for h in &hits[..k - 1] {
-                        stack[sp].write(*h);
+                    }));
+                    let k = mask.count_ones() as usize;
+                    for &key in keys[1..k].iter().rev() {
+                        let s = (key & 3) as usize;
+                        stack[sp].write((node.child[s], e[s]));
                         sp += 1;
                     }
-                    code = hits[k - 1].0;
+                    code = node.child[(keys[0] & 3) as usize];
                     continue 'visit;
                 }
             } else {
@@ -915,6 +919,23 @@ impl Bvh4 {
     }
 }
 
+/// Four keys in ascending order: a sorting network of five compare-exchanges, each a
+/// min and a max (conditional moves, no branches).
+#[inline(always)]
+fn sort4(mut k: [u32; 4]) -> [u32; 4] {
+    let mut exchange = |a: usize, b: usize| {
+        let (x, y) = (k[a], k[b]);
+        k[a] = x.min(y);
+        k[b] = x.max(y);
+    };
+    exchange(0, 1);
+    exchange(2, 3);
+    exchange(0, 2);
+    exchange(1, 3);
+    exchange(1, 2);
+    k
+}
+
 fn kind_slot(kind: PrimKind) -> usize {
     match kind {
         PrimKind::Sphere => 0,
@@ -954,6 +975,18 @@ mod tests {
         let nan = Vec4::new(f32::NAN, 1.0, f32::NAN, 5.0);
         assert_eq!(nan.max(Vec4::splat(2.0)), Vec4::new(2.0, 2.0, 2.0, 5.0));
         assert_eq!(nan.min(Vec4::splat(2.0)), Vec4::new(2.0, 1.0, 2.0, 2.0));
+    }
+
+    #[test]
+    fn sort4_sorts_every_order() {
+        // Every arrangement of four keys drawn from {0, 1, 2, u32::MAX} (with repeats).
+        let values = [0, 1, 2, u32::MAX];
+        for code in 0..256u32 {
+            let keys = [0, 1, 2, 3].map(|i| values[(code >> (2 * i) & 3) as usize]);
+            let mut expected = keys;
+            expected.sort_unstable();
+            assert_eq!(sort4(keys), expected, "{keys:?}");
+        }
     }
 
     #[test]
