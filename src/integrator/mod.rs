@@ -622,12 +622,25 @@ pub struct PhongLanes<L> {
 }
 
 impl<L: Lane> PhongLanes<L> {
-    /// Lane i shades with `material(i)`.
+    /// Lane i shades with `material(i)`. Lanes that all name one material (the same
+    /// reference) are splatted.
     #[inline]
     pub fn from_fn<'m>(mut material: impl FnMut(usize) -> &'m Phong) -> Self {
-        let mut ms = [Phong::default(); MAX_WIDTH];
-        for (i, m) in ms.iter_mut().enumerate().take(L::WIDTH) {
-            *m = *material(i);
+        let first = material(0);
+        let mut ms = [first; MAX_WIDTH];
+        let mut uniform = true;
+        for (i, m) in ms.iter_mut().enumerate().take(L::WIDTH).skip(1) {
+            *m = material(i);
+            uniform &= std::ptr::eq(*m, first);
+        }
+        if uniform {
+            return Self {
+                albedo: V3::splat(first.albedo),
+                ka: L::splat(first.ka),
+                kd: L::splat(first.kd),
+                ks: L::splat(first.ks),
+                shininess: [first.shininess; MAX_WIDTH],
+            };
         }
         Self {
             albedo: V3::from_fn(|i| ms[i].albedo),

@@ -21,8 +21,8 @@ use crate::geometry::spawn::{spawn_origin, spawn_ray};
 use crate::geometry::Ray;
 use crate::lanes::V3;
 use crate::lanes::{set_lanes, Lane, Mask};
-use crate::material::{Material, Phong};
-use crate::rng::{keys_lanes, slot, uniform_lanes, SampleKey, SamplerKind, MAX_LIGHT_SAMPLES};
+use crate::material::Material;
+use crate::rng::{keys_lanes, slot, uniform_lanes, SampleKey, SamplerKind};
 use crate::scene::LightShape;
 use glam::Vec3;
 
@@ -167,76 +167,61 @@ impl Tracer<'_> {
             return out;
         }
 
-        // The lanes' Phong parameters.
-        let unused = Phong::default();
-        let materials =
-            PhongLanes::<L>::from_fn(|k| match hits[k].map(|h| scene.material_of(h.object)) {
-                Some(Material::Phong(p) | Material::PhongMirror { phong: p, .. })
-                    if phong_lanes >> k & 1 != 0 =>
-                {
-                    p
-                }
-                _ => &unused,
-            });
-        let view = -dir;
-        // Shadow rays: one packet per light sample, over the lanes that shade with Phong.
-        // Per sample: the lanes that have a direction, the lanes' directions and the
-        // lanes that see the light.
-        let n = scene.lights.len() * MAX_LIGHT_SAMPLES as usize;
-        let none = (0u32, V3::splat(Vec3::ZERO), 0u32);
-        let mut on_stack = [none; 16];
-        let mut on_heap = Vec::new();
-        let samples: &mut [(u32, V3<L>, u32)] = if n <= on_stack.len() {
-            &mut on_stack[..n]
-        } else {
-            on_heap.resize(n, none);
-            &mut on_heap
+        // The lanes' Phong parameters. A lane that does not shade with Phong takes the
+        // first Phong lane's material (its values are never read), so a packet on one
+        // material is recognised by `PhongLanes::from_fn` and splatted.
+        let phong_of = |k: usize| match hits[k].map(|h| scene.material_of(h.object)) {
+            Some(Material::Phong(p) | Material::PhongMirror { phong: p, .. }) => Some(p),
+            _ => None,
         };
-        for (li, light) in scene.lights.iter().enumerate() {
-            for j in 0..light.samples() {
-                let (valid, dirs, visible) =
-                    &mut samples[li * MAX_LIGHT_SAMPLES as usize + j as usize];
-                let target = match light.shape {
-                    LightShape::Point { center, .. } => V3::splat(center),
-                    _ => V3::from_fn(|k| {
-                        if phong_lanes >> k & 1 != 0 {
-                            self.light_target(keys[k], vertex, li, j)
-                        } else {
-                            Vec3::ZERO
-                        }
-                    }),
-                };
-                let (l, ok) = direction_to(target, s.point);
-                *valid = ok.bits() & phong_lanes;
-                *dirs = l;
-                let mut traced = *valid;
-                if self.specialize {
-                    let culled =
-                        adds_nothing_lanes(s.normal, l, view, &materials.shininess, traced);
-                    counts.shadow_culled += culled.count_ones() as u64;
-                    traced &= !culled;
-                }
-                if traced == 0 {
-                    continue;
-                }
-                counts.shadow += traced.count_ones() as u64;
-                counts.shadow_packets.record(traced);
-                let o = spawn_origin(s.point, s.error, s.normal, l);
-                let p = RayPacket::<L>::from_active_lanes(o, l, traced);
-                *visible = self.accel.light_visible_packet(
-                    scene,
-                    &p,
-                    T_MIN,
-                    light,
-                    traced,
-                    &mut counts.traversal,
-                );
+        let first = phong_of(phong_lanes.trailing_zeros() as usize)
+            .expect("a Phong lane has a Phong material");
+        let materials = PhongLanes::<L>::from_fn(|k| {
+            if phong_lanes >> k & 1 != 0 {
+                phong_of(k).unwrap_or(first)
+            } else {
+                first
             }
-        }
-        // Phong over the lanes, the same kernel as the scalar tracer's.
+        });
+        let view = -dir;
+        // Phong over the lanes, the same kernel as the scalar tracer's. As there, each
+        // light sample's shadow rays are traced when the kernel asks for the sample: one
+        // packet over the lanes that shade with Phong and have a direction to it.
         let local = super::phong_lanes(&materials, scene, s.normal, view, |li, j| {
-            let (valid, dirs, visible) = samples[li * MAX_LIGHT_SAMPLES as usize + j as usize];
-            (valid & visible, dirs)
+            let light = &scene.lights[li];
+            let target = match light.shape {
+                LightShape::Point { center, .. } => V3::splat(center),
+                _ => V3::from_fn(|k| {
+                    if phong_lanes >> k & 1 != 0 {
+                        self.light_target(keys[k], vertex, li, j)
+                    } else {
+                        Vec3::ZERO
+                    }
+                }),
+            };
+            let (l, ok) = direction_to(target, s.point);
+            let mut traced = ok.bits() & phong_lanes;
+            if self.specialize {
+                let culled = adds_nothing_lanes(s.normal, l, view, &materials.shininess, traced);
+                counts.shadow_culled += culled.count_ones() as u64;
+                traced &= !culled;
+            }
+            if traced == 0 {
+                return (0, l);
+            }
+            counts.shadow += traced.count_ones() as u64;
+            counts.shadow_packets.record(traced);
+            let o = spawn_origin(s.point, s.error, s.normal, l);
+            let p = RayPacket::<L>::from_active_lanes(o, l, traced);
+            let visible = self.accel.light_visible_packet(
+                scene,
+                &p,
+                T_MIN,
+                light,
+                traced,
+                &mut counts.traversal,
+            );
+            (visible, l)
         });
         for k in set_lanes(phong_lanes & !mirror_lanes) {
             out[k] = weight(local.lane(k));
