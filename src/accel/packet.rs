@@ -29,9 +29,10 @@ pub const MAX_WIDTH: usize = 8;
 
 const STACK_SIZE: usize = 256;
 
-/// A packet of rays with the per-lane constants of every test, computed lane-wise with
-/// the scalar constructors' operations (`BoxRay::new`, `SphereRay::new`,
-/// `WatertightRay::new`), so each lane holds the scalar values.
+/// A packet of rays with the per-lane constants of the box and sphere tests, computed
+/// lane-wise with the scalar constructors' operations (`BoxRay::new`, `SphereRay::new`),
+/// so each lane holds the scalar values; `WatertightRay::new`'s are made at the
+/// packet's first triangle test (`triangle_lanes`).
 #[derive(Clone, Debug)]
 pub struct RayPacket<L: Lane> {
     /// Lanes holding a ray (bit i: lane i). Other lanes copy an active ray and are never
@@ -47,12 +48,6 @@ pub struct RayPacket<L: Lane> {
     negative: [L::Mask; 3],
     sphere_a: L,
     sphere_inv_a: L,
-    /// The watertight test's axis order, when every lane has the same one.
-    tri_axes: Option<[usize; 3]>,
-    tri_origin: [L; 3],
-    tri_sx: L,
-    tri_sy: L,
-    tri_sz: L,
     /// When every axis has a uniform sign: the rows of `Node4` (as `[[f32; 4]; 8]`)
     /// holding each axis' near and far planes, as `BoxRay` picks them, so a child's box
     /// test is six broadcast loads with no per-axis select.
@@ -130,40 +125,6 @@ impl<L: Lane> RayPacket<L> {
         let signs = inv.map(|x| x.lt(zero).bits());
         // SphereRay::new, lane-wise.
         let sphere_a = dir.dot(dir);
-        // WatertightRay::axes, lane-wise: when every lane picks the same axes the shear
-        // is lane-wise too, else it is computed lane by lane.
-        let (ax, ay, az) = (dir.x.abs(), dir.y.abs(), dir.z.abs());
-        let x_over_y = ax.gt(ay);
-        let kz_x = (x_over_y & ax.gt(az)).bits();
-        let kz_y = (!x_over_y & ay.gt(az)).bits();
-        let d = [dir.x, dir.y, dir.z];
-        let o = [origin.x, origin.y, origin.z];
-        let kz = match (uniform(kz_x), uniform(kz_y)) {
-            (Some(true), _) => Some(0),
-            (Some(false), Some(true)) => Some(1),
-            (Some(false), Some(false)) => Some(2),
-            _ => None,
-        };
-        let tri_axes = kz.and_then(|kz| {
-            uniform(d[kz].lt(zero).bits()).map(|negative| {
-                if negative {
-                    [(kz + 2) % 3, (kz + 1) % 3, kz]
-                } else {
-                    [(kz + 1) % 3, (kz + 2) % 3, kz]
-                }
-            })
-        });
-        let (tri_origin, tri_sx, tri_sy, tri_sz) = match tri_axes {
-            Some([kx, ky, kz]) => (
-                [o[kx], o[ky], o[kz]],
-                d[kx] / d[kz],
-                d[ky] / d[kz],
-                one / d[kz],
-            ),
-            // Lanes that disagree on the axes are tested one at a time by the scalar
-            // test (`test_prim`), which makes its own constants: none needed here.
-            None => ([zero; 3], zero, zero, zero),
-        };
         Self {
             active,
             origin,
@@ -184,12 +145,48 @@ impl<L: Lane> RayPacket<L> {
             negative: signs.map(L::Mask::from_bits),
             sphere_a,
             sphere_inv_a: one / sphere_a,
-            tri_axes,
-            tri_origin,
-            tri_sx,
-            tri_sy,
-            tri_sz,
         }
+    }
+
+    /// `WatertightRay::new`'s constants lane-wise, with the triangle columns in their
+    /// axis order, when every lane picks the same axes (else `None`: the lanes are then
+    /// tested one at a time by the scalar test, which makes its own). Made at a packet's
+    /// first triangle test (`LazyTriangles`): most `bunny` packets never reach one, and
+    /// these are three divisions a packet.
+    fn triangle_lanes<'a>(&self, pool: &'a TrianglePool) -> Option<TriangleLanes<'a, L>> {
+        let lanes = (1u32 << L::WIDTH) - 1;
+        let uniform = |bits: u32| match bits {
+            0 => Some(false),
+            b if b == lanes => Some(true),
+            _ => None,
+        };
+        let (zero, one) = (L::splat(0.0), L::splat(1.0));
+        let (dir, origin) = (self.dir, self.origin);
+        let (ax, ay, az) = (dir.x.abs(), dir.y.abs(), dir.z.abs());
+        let x_over_y = ax.gt(ay);
+        let kz_x = (x_over_y & ax.gt(az)).bits();
+        let kz_y = (!x_over_y & ay.gt(az)).bits();
+        let d = [dir.x, dir.y, dir.z];
+        let o = [origin.x, origin.y, origin.z];
+        let kz = match (uniform(kz_x), uniform(kz_y)) {
+            (Some(true), _) => 0,
+            (Some(false), Some(true)) => 1,
+            (Some(false), Some(false)) => 2,
+            _ => return None,
+        };
+        let negative = uniform(d[kz].lt(zero).bits())?;
+        let axes @ [kx, ky, kz] = if negative {
+            [(kz + 2) % 3, (kz + 1) % 3, kz]
+        } else {
+            [(kz + 1) % 3, (kz + 2) % 3, kz]
+        };
+        Some(TriangleLanes {
+            cols: pool.columns(axes),
+            origin: [o[kx], o[ky], o[kz]],
+            sx: d[kx] / d[kz],
+            sy: d[ky] / d[kz],
+            sz: one / d[kz],
+        })
     }
 
     /// The sphere test on every lane, `SpherePool::intersect`'s bits: distances and the
@@ -317,7 +314,7 @@ impl<L: Lane> RayPacket<L> {
         t_min: f32,
         t_max: &[f32; MAX_WIDTH],
         lanes: u32,
-        cols: Option<&Columns>,
+        tri: Option<&TriangleLanes<L>>,
     ) -> ([f32; MAX_WIDTH], u32) {
         let t_min_l = L::splat(t_min);
         let t_max_l = L::from_fn(|k| t_max[k]);
@@ -353,15 +350,16 @@ impl<L: Lane> RayPacket<L> {
                 );
                 (t, hit.bits(), 0)
             }
-            PrimKind::Triangle => match cols {
-                Some(cols) => {
+            PrimKind::Triangle => match tri {
+                Some(tri) => {
+                    let cols = &tri.cols;
                     let vertex = |m: usize| {
                         let v = [
                             L::splat(cols.at(m, i)),
                             L::splat(cols.at(m + 1, i)),
                             L::splat(cols.at(m + 2, i)),
                         ];
-                        shear(v, self.tri_origin, self.tri_sx, self.tri_sy)
+                        shear(v, tri.origin, tri.sx, tri.sy)
                     };
                     let (a, b, c) = (vertex(0), vertex(3), vertex(6));
                     let [u, v, w] = edge_functions(a, b, c);
@@ -372,7 +370,7 @@ impl<L: Lane> RayPacket<L> {
                         return ([0.0; MAX_WIDTH], 0);
                     }
                     let (t, hit) =
-                        watertight_distance([u, v, w], a, b, c, self.tri_sz, t_min_l, t_max_l);
+                        watertight_distance([u, v, w], a, b, c, tri.sz, t_min_l, t_max_l);
                     (t, hit.bits() & !exact_zero, exact_zero)
                 }
                 None => (L::splat(0.0), 0, lanes),
@@ -395,16 +393,23 @@ impl<L: Lane> RayPacket<L> {
     }
 }
 
-/// A packet's triangle columns (`triangle::Columns`, in its axis order when its lanes
-/// share one), looked up at the first triangle test: most `bunny` packets never reach
-/// one.
-struct LazyColumns<'a, L: Lane> {
-    packet: &'a RayPacket<L>,
-    tri: &'a TrianglePool,
-    cell: OnceCell<Option<Columns<'a>>>,
+/// A packet's triangle constants and columns (`RayPacket::triangle_lanes`), made at
+/// its first triangle test: most `bunny` packets never reach one.
+pub(crate) struct TriangleLanes<'a, L> {
+    cols: Columns<'a>,
+    origin: [L; 3],
+    sx: L,
+    sy: L,
+    sz: L,
 }
 
-impl<'a, L: Lane> LazyColumns<'a, L> {
+struct LazyTriangles<'a, L: Lane> {
+    packet: &'a RayPacket<L>,
+    tri: &'a TrianglePool,
+    cell: OnceCell<Option<TriangleLanes<'a, L>>>,
+}
+
+impl<'a, L: Lane> LazyTriangles<'a, L> {
     fn new(packet: &'a RayPacket<L>, tri: &'a TrianglePool) -> Self {
         Self {
             packet,
@@ -413,15 +418,15 @@ impl<'a, L: Lane> LazyColumns<'a, L> {
         }
     }
 
-    /// The columns for a test of `kind` (`None` for other kinds, or when the lanes
-    /// order the axes differently).
+    /// The triangle lanes for a test of `kind` (`None` for other kinds, or when the
+    /// lanes order the axes differently).
     #[inline(always)]
-    fn get(&self, kind: PrimKind) -> Option<&Columns<'a>> {
+    fn get(&self, kind: PrimKind) -> Option<&TriangleLanes<'a, L>> {
         if kind != PrimKind::Triangle {
             return None;
         }
         self.cell
-            .get_or_init(|| self.packet.tri_axes.map(|axes| self.tri.columns(axes)))
+            .get_or_init(|| self.packet.triangle_lanes(self.tri))
             .as_ref()
     }
 }
@@ -462,11 +467,11 @@ impl<L: Lane> Closest<L> {
         range: std::ops::Range<usize>,
         t_min: f32,
         lanes: u32,
-        cols: Option<&Columns>,
+        tri: Option<&TriangleLanes<L>>,
     ) {
         let mut any = false;
         for i in range {
-            let (t, bits) = p.test_prim(scene, kind, i, t_min, &self.t_max, lanes, cols);
+            let (t, bits) = p.test_prim(scene, kind, i, t_min, &self.t_max, lanes, tri);
             if bits == 0 {
                 continue;
             }
@@ -507,7 +512,7 @@ impl Bvh4 {
                 f32::NEG_INFINITY
             }
         });
-        let cols = LazyColumns::new(p, &scene.triangles);
+        let tris = LazyTriangles::new(p, &scene.triangles);
         let mut st = Closest {
             t_max,
             t_max_lanes: L::from_fn(|k| t_max[k]),
@@ -517,7 +522,7 @@ impl Bvh4 {
             if self.linear_kinds[k] {
                 let n = pool_len(scene, kind);
                 stats.prims += (n * p.active.count_ones() as usize) as u64;
-                st.leaf(scene, p, kind, 0..n, t_min, p.active, cols.get(kind));
+                st.leaf(scene, p, kind, 0..n, t_min, p.active, tris.get(kind));
             }
         }
         let Some(root) = self.root else {
@@ -547,7 +552,7 @@ impl Bvh4 {
                     start as usize..(start + count) as usize,
                     t_min,
                     lanes,
-                    cols.get(kind),
+                    tris.get(kind),
                 );
                 continue;
             }
@@ -629,7 +634,7 @@ impl Bvh4 {
     ) -> u32 {
         let mut remaining = lanes & p.active;
         let mut occluded = 0u32;
-        let cols = LazyColumns::new(p, &scene.triangles);
+        let tris = LazyTriangles::new(p, &scene.triangles);
         // Lanes not tested get t_max = −∞ (no box or primitive test passes).
         let mut t_max: [f32; MAX_WIDTH] = std::array::from_fn(|k| {
             if remaining >> k & 1 != 0 {
@@ -650,7 +655,7 @@ impl Bvh4 {
                     continue;
                 }
                 let (t, bits) =
-                    p.test_prim(scene, kind, i, t_min, t_max, lanes & !found, cols.get(kind));
+                    p.test_prim(scene, kind, i, t_min, t_max, lanes & !found, tris.get(kind));
                 for k in set_lanes(bits) {
                     if t[k] < t_light[k] || id < id_light[k] {
                         found |= 1 << k;
