@@ -168,6 +168,17 @@ struct SphereLanes {
     radius: Vec4,
 }
 
+/// The rows of `Node4` (as `[[f32; 4]; 8]`: min x, y, z, max x, y, z) holding each
+/// axis' near and far planes, for a direction whose axis a is negative when
+/// `negative[a]` is 1: min for a positive direction, max for a negative one.
+#[inline(always)]
+pub(crate) fn plane_rows(negative: [usize; 3]) -> ([usize; 3], [usize; 3]) {
+    (
+        [0, 1, 2].map(|a| a + 3 * negative[a]),
+        [0, 1, 2].map(|a| a + 3 - 3 * negative[a]),
+    )
+}
+
 /// Per-ray constants of the box test.
 #[derive(Clone, Copy, Debug)]
 pub struct BoxRay {
@@ -195,11 +206,11 @@ impl BoxRay {
     fn from_inv(ray: &Ray, inv: Vec3) -> Self {
         let near = inv * NEAR_SCALE;
         let far = inv * FAR_SCALE;
-        let negative = [
+        let (near_row, far_row) = plane_rows([
             inv.x.is_sign_negative() as usize,
             inv.y.is_sign_negative() as usize,
             inv.z.is_sign_negative() as usize,
-        ];
+        ]);
         Self {
             origin: [
                 Vec4::splat(ray.origin.x),
@@ -212,8 +223,8 @@ impl BoxRay {
                 Vec4::splat(near.z),
             ],
             inv_far: [Vec4::splat(far.x), Vec4::splat(far.y), Vec4::splat(far.z)],
-            near_row: [0, 1, 2].map(|a| a + 3 * negative[a]),
-            far_row: [0, 1, 2].map(|a| a + 3 - 3 * negative[a]),
+            near_row,
+            far_row,
         }
     }
 
@@ -769,8 +780,7 @@ impl Bvh4 {
                         // branch predictor, so it is a select, not a branch.
                         let (ci, cj) = (node.child[i], node.child[j]);
                         let swap = e[j] < e[i];
-                        let near = if swap { cj } else { ci };
-                        let far = ci ^ cj ^ near;
+                        let (near, far) = if swap { (cj, ci) } else { (ci, cj) };
                         let far_e = if swap { e[i] } else { e[j] };
                         stack[sp].write((far, far_e));
                         sp += 1;

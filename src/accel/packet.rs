@@ -9,7 +9,8 @@
 //! (`Packet::fallback`) is finished one ray at a time by the scalar traversal.
 
 use super::bvh4::{
-    decode_leaf, pool_len, slab, BoxRay, Bvh4, Node4, EMPTY, FAR_SCALE, LEAF, NEAR_SCALE,
+    decode_leaf, plane_rows, pool_len, slab, BoxRay, Bvh4, Node4, EMPTY, FAR_SCALE, LEAF,
+    NEAR_SCALE,
 };
 use super::linear::PrimRay;
 use super::TraversalStats;
@@ -109,20 +110,14 @@ impl<L: Lane> RayPacket<L> {
     /// A packet from rays already in lanes; every lane, active or not, must hold a
     /// finite ray (inactive lanes are tested but never reported).
     pub fn from_lanes(origin: V3<L>, dir: V3<L>, active: u32) -> Self {
-        let w = L::WIDTH;
         let zero = L::splat(0.0);
-        let lanes = (1u32 << w) - 1;
-        let uniform = |bits: u32| match bits {
-            0 => Some(false),
-            b if b == lanes => Some(true),
-            _ => None,
-        };
         // BoxRay::new, lane-wise. (1/d is never −0, so `< 0` is its sign bit; a NaN
         // direction hits nothing whichever planes it picks.)
         let one = L::splat(1.0);
         let inv = [one / dir.x, one / dir.y, one / dir.z];
         let (near_scale, far_scale) = (L::splat(NEAR_SCALE), L::splat(FAR_SCALE));
         let signs = inv.map(|x| x.lt(zero).bits());
+        let uniform_sign = signs.map(uniform::<L>);
         // SphereRay::new, lane-wise.
         let sphere_a = dir.dot(dir);
         Self {
@@ -131,15 +126,9 @@ impl<L: Lane> RayPacket<L> {
             dir,
             inv_near: inv.map(|x| x * near_scale),
             inv_far: inv.map(|x| x * far_scale),
-            uniform_sign: signs.map(uniform),
-            box_rows: match signs.map(uniform) {
-                [Some(x), Some(y), Some(z)] => {
-                    let negative = [x, y, z].map(usize::from);
-                    Some((
-                        [0, 1, 2].map(|a| a + 3 * negative[a]),
-                        [0, 1, 2].map(|a| a + 3 - 3 * negative[a]),
-                    ))
-                }
+            uniform_sign,
+            box_rows: match uniform_sign {
+                [Some(x), Some(y), Some(z)] => Some(plane_rows([x, y, z].map(usize::from))),
                 _ => None,
             },
             negative: signs.map(L::Mask::from_bits),
@@ -154,12 +143,7 @@ impl<L: Lane> RayPacket<L> {
     /// first triangle test (`LazyTriangles`): most `bunny` packets never reach one, and
     /// these are three divisions a packet.
     fn triangle_lanes<'a>(&self, pool: &'a TrianglePool) -> Option<TriangleLanes<'a, L>> {
-        let lanes = (1u32 << L::WIDTH) - 1;
-        let uniform = |bits: u32| match bits {
-            0 => Some(false),
-            b if b == lanes => Some(true),
-            _ => None,
-        };
+        let uniform = uniform::<L>;
         let (zero, one) = (L::splat(0.0), L::splat(1.0));
         let (dir, origin) = (self.dir, self.origin);
         let (ax, ay, az) = (dir.x.abs(), dir.y.abs(), dir.z.abs());
@@ -390,6 +374,17 @@ impl<L: Lane> RayPacket<L> {
             }
         }
         (out, bits)
+    }
+}
+
+/// Whether a mask over the `L::WIDTH` lanes is all clear (`Some(false)`), all set
+/// (`Some(true)`) or mixed (`None`).
+#[inline(always)]
+fn uniform<L: Lane>(bits: u32) -> Option<bool> {
+    match bits {
+        0 => Some(false),
+        b if b == (1u32 << L::WIDTH) - 1 => Some(true),
+        _ => None,
     }
 }
 

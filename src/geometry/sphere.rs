@@ -242,6 +242,27 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             (state >> 40) as f32 / (1u64 << 24) as f32
         };
+        // Lanes `k0..k0 + L::WIDTH` of the group in one call.
+        fn lanes<L: Lane>(
+            centers: &[Vec3; 8],
+            radii: &[f32; 8],
+            k0: usize,
+            origin: Vec3,
+            dir: Vec3,
+            a: f32,
+        ) -> (L, L::Mask) {
+            let c = |f: fn(Vec3) -> f32| L::from_fn(|k| f(centers[k0 + k]));
+            sphere_distance::<L>(
+                V3::new(c(|v| v.x), c(|v| v.y), c(|v| v.z)),
+                L::from_fn(|k| radii[k0 + k]),
+                V3::splat(origin),
+                V3::splat(dir),
+                L::splat(a),
+                L::splat(1.0 / a),
+                L::splat(1e-4),
+                L::splat(f32::INFINITY),
+            )
+        }
         let (mut hits, mut none, mut mixed) = (0, 0, 0);
         for _ in 0..2000 {
             let origin = Vec3::new(unit(), unit(), unit()) * 4.0 - 2.0;
@@ -270,39 +291,13 @@ mod tests {
                     _ => mixed += 1,
                 }
             }
-            let c = |f: fn(Vec3) -> f32| std::array::from_fn::<f32, 8, _>(|k| f(centers[k]));
-            let (t8, m8) = sphere_distance::<f32x8>(
-                V3::new(
-                    f32x8::from(c(|v| v.x)),
-                    f32x8::from(c(|v| v.y)),
-                    f32x8::from(c(|v| v.z)),
-                ),
-                f32x8::from(radii),
-                V3::splat(origin),
-                V3::splat(dir),
-                f32x8::splat(a),
-                f32x8::splat(1.0 / a),
-                f32x8::splat(1e-4),
-                f32x8::splat(f32::INFINITY),
-            );
+            let (t8, m8) = lanes::<f32x8>(&centers, &radii, 0, origin, dir, a);
             for half in 0..2 {
                 let k0 = 4 * half;
-                let v = |f: fn(Vec3) -> f32| {
-                    Vec4::from_array(std::array::from_fn(|k| f(centers[k0 + k])))
-                };
-                let (t4, m4) = sphere_distance::<Vec4>(
-                    V3::new(v(|p| p.x), v(|p| p.y), v(|p| p.z)),
-                    Vec4::from_array(std::array::from_fn(|k| radii[k0 + k])),
-                    V3::splat(origin),
-                    V3::splat(dir),
-                    Vec4::splat(a),
-                    Vec4::splat(1.0 / a),
-                    Vec4::splat(1e-4),
-                    Vec4::splat(f32::INFINITY),
-                );
+                let (t4, m4) = lanes::<Vec4>(&centers, &radii, k0, origin, dir, a);
                 for k in 0..4 {
                     let (t, hit) = scalar[k0 + k];
-                    assert_eq!(m4.bitmask() >> k & 1 != 0, hit, "4-wide lane {k}");
+                    assert_eq!(m4.bits() >> k & 1 != 0, hit, "4-wide lane {k}");
                     assert_eq!(
                         m8.bits() >> (k0 + k) & 1 != 0,
                         hit,

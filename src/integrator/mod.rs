@@ -245,14 +245,7 @@ impl<'a> Tracer<'a> {
         let (mut point, mut error, mut outward) = (zero, zero, zero);
         if spheres != 0 {
             // Lanes of other kinds take the first sphere lane's sphere (replaced below).
-            let first = index[spheres.trailing_zeros() as usize];
-            let i: [usize; MAX_WIDTH] = std::array::from_fn(|k| {
-                if spheres >> k & 1 != 0 {
-                    index[k]
-                } else {
-                    first
-                }
-            });
+            let i = own_or_first(&index, spheres);
             let pool = &scene.spheres;
             let c = V3::new(
                 L::from_fn(|k| pool.cx[i[k]]),
@@ -265,14 +258,7 @@ impl<'a> Tracer<'a> {
         }
         if triangles != 0 {
             // Lanes of other kinds take the first triangle lane's triangle (replaced).
-            let first = index[triangles.trailing_zeros() as usize];
-            let i: [usize; MAX_WIDTH] = std::array::from_fn(|k| {
-                if triangles >> k & 1 != 0 {
-                    index[k]
-                } else {
-                    first
-                }
-            });
+            let i = own_or_first(&index, triangles);
             let pool = &scene.triangles;
             let vertex = |p: &[Vec<f32>; 3]| {
                 V3::new(
@@ -610,6 +596,14 @@ pub fn mirror_direction<L: Lane>(d: V3<L>, n: V3<L>) -> V3<L> {
 #[inline(always)]
 pub fn mirror_fresnel<L: Lane>(d: V3<L>, n: V3<L>, index: L) -> L {
     schlick_lanes(d.dot(n).flip_sign().min(L::splat(1.0)), index)
+}
+
+/// `index[k]` for the lanes `k` of `lanes` (not empty), the first of those lanes' index
+/// for the others, so every lane reads a valid primitive.
+#[inline(always)]
+fn own_or_first(index: &[usize; MAX_WIDTH], lanes: u32) -> [usize; MAX_WIDTH] {
+    let first = index[lanes.trailing_zeros() as usize];
+    std::array::from_fn(|k| if lanes >> k & 1 != 0 { index[k] } else { first })
 }
 
 /// The Phong parameters of each lane.
