@@ -561,19 +561,25 @@ impl Bvh4 {
                 st.t_max_lanes,
                 L::splat(f32::NEG_INFINITY),
             );
+            // All four boxes first, with no branch between them (an empty slot's box
+            // is inverted and never hit): which children a packet enters is a coin
+            // toss for the branch predictor, so it is asked once, as a 4-bit mask.
+            let t_min_l = L::splat(t_min);
+            let tested: [(L, u32); 4] = std::array::from_fn(|c| {
+                let (entry, bits) = p.test_child(node, c, t_min_l, t_max);
+                (entry, bits & lanes)
+            });
+            let entered = tested
+                .iter()
+                .enumerate()
+                .fold(0u32, |m, (c, t)| m | ((t.1 != 0) as u32) << c);
             let mut hits = [(0u32, 0u32, 0f32); 4];
             let mut finished_alone = false;
             let mut n = 0;
-            for c in 0..4 {
+            for c in set_lanes(entered) {
+                let (entry, bits) = tested[c];
                 let child = node.child[c];
-                if child == EMPTY {
-                    continue;
-                }
-                let (entry, bits) = p.test_child(node, c, L::splat(t_min), t_max);
-                let bits = bits & lanes;
-                if bits == 0 {
-                    continue;
-                }
+                debug_assert!(child != EMPTY);
                 if bits.count_ones() <= fallback {
                     for k in set_lanes(bits) {
                         let (pray, bray) = p.scalar(k);
@@ -717,13 +723,18 @@ impl Bvh4 {
                         f32::NEG_INFINITY
                     }
                 });
-                for c in 0..4 {
+                // As in `closest_hit_packet`: the four boxes, then one mask.
+                let t_min_l = L::splat(t_min);
+                let tested: [u32; 4] =
+                    std::array::from_fn(|c| p.test_child(node, c, t_min_l, t_max_l).1 & lanes);
+                let entered = tested
+                    .iter()
+                    .enumerate()
+                    .fold(0u32, |m, (c, &b)| m | ((b != 0) as u32) << c);
+                for c in set_lanes(entered) {
                     let child = node.child[c];
-                    if child == EMPTY {
-                        continue;
-                    }
-                    let (_, bits) = p.test_child(node, c, L::splat(t_min), t_max_l);
-                    let bits = bits & lanes & !found;
+                    debug_assert!(child != EMPTY);
+                    let bits = tested[c] & !found;
                     if bits == 0 {
                         continue;
                     }
