@@ -1,22 +1,70 @@
-//! A probe for instruction counts (valgrind --tool=callgrind): traces the camera rays of a
-//! built-in scene (argument 1, default `bunny-closeup`) at a packet width (argument 2: 1, 4
-//! or 8), one thread, and prints the hits. Not a benchmark: compare variants by
-//! callgrind's instruction count, which the shared machine's load does not move.
+//! A probe for instruction counts (valgrind --tool=callgrind): traces a ray set of a
+//! built-in scene at a packet width, one thread, and prints the hits. Arguments: scene
+//! (default `bunny-closeup`), width (1, 4 or 8; default 8), ray set (`camera`, default,
+//! or `shadow`: the rays from the camera rays' hits to the first light, as
+//! `benches/packets.rs` makes them). The image is 400 px wide at 2 samples a pixel. Not a
+//! benchmark: compare variants by callgrind's instruction count in `trace_all`, which the
+//! shared machine's load does not move.
 //!
 //! cargo build --release --example packet_probe
-//! valgrind --tool=callgrind target/release/examples/packet_probe bunny-closeup 8
+//! valgrind --tool=callgrind --toggle-collect=packet_probe::trace_all \
+//!     target/release/examples/packet_probe bunny shadow 8
 
-use raytracer::accel::packet::{RayPacket, MAX_WIDTH};
+#[path = "../benches/common/mod.rs"]
+mod common;
+
+use common::{camera_packets, flatten, shadow_packets, Packet};
+use raytracer::accel::packet::RayPacket;
 use raytracer::accel::{Accel, AccelKind, TraversalStats};
-use raytracer::geometry::Ray;
-use raytracer::integrator::{footprint, T_MIN};
-use raytracer::rng::{slot, SampleKey};
+use raytracer::integrator::T_MIN;
+use raytracer::lanes::Lane;
 use raytracer::scene::{Overrides, Scene};
+
+/// Closest hits (camera) or visible lanes (shadow) of every packet: the count of hits.
+/// Width 1 traces the packets' rays one at a time (flattening them is counted).
+#[inline(never)]
+fn trace_all<L: Lane>(
+    scene: &Scene,
+    accel: &Accel,
+    packets: &[Packet],
+    shadow: bool,
+    stats: &mut TraversalStats,
+) -> u64 {
+    let mut hits = 0u64;
+    if L::WIDTH == 1 {
+        for ray in &flatten(packets) {
+            hits += if shadow {
+                accel.light_visible(scene, ray, T_MIN, &scene.lights[0], stats)
+            } else {
+                accel
+                    .closest_hit(scene, ray, T_MIN, f32::INFINITY, stats)
+                    .is_some()
+            } as u64;
+        }
+        return hits;
+    }
+    for (rays, active) in packets {
+        let p = RayPacket::<L>::new(rays, *active);
+        hits += if shadow {
+            let v = accel.light_visible_packet(scene, &p, T_MIN, &scene.lights[0], *active, stats);
+            v.count_ones() as u64
+        } else {
+            let h = accel.closest_hit_packet(scene, &p, T_MIN, stats);
+            h.iter().filter(|h| h.is_some()).count() as u64
+        };
+    }
+    hits
+}
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let name = args.get(1).map_or("bunny-closeup", |s| s.as_str());
     let width: usize = args.get(2).map_or(8, |s| s.parse().expect("a width"));
+    let shadow = match args.get(3).map_or("camera", |s| s.as_str()) {
+        "camera" => false,
+        "shadow" => true,
+        other => panic!("ray set `camera` or `shadow`, not `{other}`"),
+    };
     let overrides = Overrides {
         width: Some(400),
         spp: Some(2),
@@ -24,44 +72,18 @@ fn main() {
     };
     let mut scene = Scene::load(name, overrides).expect("a built-in scene");
     let accel = Accel::build(&mut scene, AccelKind::Bvh);
-    let cam = scene.camera;
-    let (fw, fh) = footprint(width);
-    let mut stats = TraversalStats::default();
-    let mut hits = 0u64;
-    for py in (0..cam.height).step_by(fh as usize) {
-        for px in (0..cam.width).step_by(fw as usize) {
-            for s in 0..scene.spp {
-                let mut rays = [Ray::new(cam.origin, glam::Vec3::X); MAX_WIDTH];
-                let mut active = 0u32;
-                for k in 0..width as u32 {
-                    let (x, y) = (px + k % fw, py + k / fw);
-                    if x < cam.width && y < cam.height {
-                        let key = SampleKey::new(0, x, y, s);
-                        let (jx, jy) = (
-                            key.uniform(0, slot::JITTER_X),
-                            key.uniform(0, slot::JITTER_Y),
-                        );
-                        rays[k as usize] = cam.ray(x, y, jx, jy);
-                        active |= 1 << k;
-                    }
-                }
-                hits += match width {
-                    8 => {
-                        let p = RayPacket::<wide::f32x8>::new(&rays, active);
-                        let h = accel.closest_hit_packet(&scene, &p, T_MIN, &mut stats);
-                        h.iter().filter(|h| h.is_some()).count() as u64
-                    }
-                    4 => {
-                        let p = RayPacket::<glam::Vec4>::new(&rays, active);
-                        let h = accel.closest_hit_packet(&scene, &p, T_MIN, &mut stats);
-                        h.iter().filter(|h| h.is_some()).count() as u64
-                    }
-                    _ => accel
-                        .closest_hit(&scene, &rays[0], T_MIN, f32::INFINITY, &mut stats)
-                        .is_some() as u64,
-                };
-            }
-        }
+    // Width 1 traces the 8-wide packets' rays one at a time.
+    let mut packets = camera_packets(&scene, if width == 4 { 4 } else { 8 });
+    if shadow {
+        packets = shadow_packets(&scene, &accel, &packets);
     }
-    println!("{name} width {width}: {hits} hits, {stats:?}");
+    let mut stats = TraversalStats::default();
+    let hits = match width {
+        8 => trace_all::<wide::f32x8>(&scene, &accel, &packets, shadow, &mut stats),
+        4 => trace_all::<glam::Vec4>(&scene, &accel, &packets, shadow, &mut stats),
+        _ => trace_all::<f32>(&scene, &accel, &packets, shadow, &mut stats),
+    };
+    let rays: u32 = packets.iter().map(|(_, a)| a.count_ones()).sum();
+    let set = if shadow { "shadow" } else { "camera" };
+    println!("{name} {set} width {width}: {rays} rays, {hits} hits, {stats:?}");
 }

@@ -1,0 +1,89 @@
+//! Ray sets shared by `benches/packets.rs` and `examples/packet_probe.rs`: a scene's
+//! camera rays in packets as the renderer groups them, and the shadow rays from their
+//! hits to the first light.
+
+use raytracer::accel::packet::MAX_WIDTH;
+use raytracer::accel::Accel;
+use raytracer::geometry::spawn::spawn_ray;
+use raytracer::geometry::Ray;
+use raytracer::integrator::{footprint, Tracer};
+use raytracer::rng::{slot, SampleKey};
+use raytracer::scene::Scene;
+
+/// Rays of a packet (unused lanes hold a copy) and its active mask.
+pub type Packet = ([Ray; MAX_WIDTH], u32);
+
+/// The camera rays of `scene`, in packets of `width` lanes (1: one ray a packet).
+pub fn camera_packets(scene: &Scene, width: usize) -> Vec<Packet> {
+    let cam = &scene.camera;
+    let (fw, fh) = footprint(width);
+    let mut out = Vec::new();
+    for py in (0..cam.height).step_by(fh as usize) {
+        for px in (0..cam.width).step_by(fw as usize) {
+            for s in 0..scene.spp {
+                let mut rays = [Ray::new(cam.origin, glam::Vec3::X); MAX_WIDTH];
+                let mut active = 0;
+                for k in 0..width as u32 {
+                    let (x, y) = (px + k % fw, py + k / fw);
+                    if x < cam.width && y < cam.height {
+                        let key = SampleKey::new(0, x, y, s);
+                        rays[k as usize] = cam.ray(
+                            x,
+                            y,
+                            key.uniform(0, slot::JITTER_X),
+                            key.uniform(0, slot::JITTER_Y),
+                        );
+                        active |= 1 << k;
+                    }
+                }
+                out.push((rays, active));
+            }
+        }
+    }
+    out
+}
+
+/// For each camera packet, the shadow rays from its lanes' hits towards light 0 (lanes
+/// that hit nothing, or the light itself, stay inactive).
+pub fn shadow_packets(scene: &Scene, accel: &Accel, camera: &[Packet]) -> Vec<Packet> {
+    let tracer = Tracer::new(scene, accel, 0);
+    let mut counts = Default::default();
+    let mut out = Vec::new();
+    for (rays, active) in camera {
+        let mut shadow = *rays;
+        let mut m = 0;
+        for k in 0..MAX_WIDTH {
+            if active >> k & 1 == 0 {
+                continue;
+            }
+            let Some(hit) = tracer.closest_hit(&rays[k], &mut counts) else {
+                continue;
+            };
+            if hit.object == scene.lights[0].object {
+                continue;
+            }
+            let s = tracer.surface(&rays[k], &hit);
+            if let Some((_, r)) = tracer.shadow_ray(&s, SampleKey::from_hash(0), 0, 0, 0) {
+                shadow[k] = spawn_ray(&s.point, s.normal, r.dir);
+                m |= 1 << k;
+            }
+        }
+        if m != 0 {
+            out.push((shadow, m));
+        }
+    }
+    out
+}
+
+/// The rays of the active lanes, in order: the scalar path traces these (a plain array,
+/// so it does not pay for copying packets).
+pub fn flatten(packets: &[Packet]) -> Vec<Ray> {
+    packets
+        .iter()
+        .flat_map(|(rays, active)| {
+            (0..MAX_WIDTH)
+                .filter(move |k| active >> k & 1 != 0)
+                .map(move |k| rays[k])
+        })
+        .collect()
+}
