@@ -117,8 +117,8 @@ impl<L: Lane> RayPacket<L> {
         let one = L::splat(1.0);
         let inv = [one / dir.x, one / dir.y, one / dir.z];
         let (near_scale, far_scale) = (L::splat(NEAR_SCALE), L::splat(FAR_SCALE));
-        let signs = inv.map(|x| x.lt(zero).bits());
-        let uniform_sign = signs.map(uniform::<L>);
+        let negative = inv.map(|x| x.lt(zero));
+        let uniform_sign = negative.map(|m| uniform::<L>(m.bits()));
         // SphereRay::new, lane-wise.
         let sphere_a = dir.dot(dir);
         Self {
@@ -132,7 +132,7 @@ impl<L: Lane> RayPacket<L> {
                 [Some(x), Some(y), Some(z)] => Some(plane_rows([x, y, z].map(usize::from))),
                 _ => None,
             },
-            negative: signs.map(L::Mask::from_bits),
+            negative,
             sphere_a,
             sphere_inv_a: one / sphere_a,
         }
