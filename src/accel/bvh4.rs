@@ -446,7 +446,7 @@ impl Closest {
             PrimKind::Quad => {
                 let q = &scene.quads;
                 for i in range {
-                    if let Some(t) = q.intersect(i, &ray.ray, t_min, self.t_max) {
+                    if let Some(t) = q.intersect(i, &ray.ray, &ray.triangle, t_min, self.t_max) {
                         self.offer(t, q.id[i], kind, i);
                     }
                 }
@@ -854,6 +854,21 @@ impl Bvh4 {
         stats: &mut TraversalStats,
     ) -> bool {
         let pray = PrimRay::new(ray);
+        self.occluded_prim(scene, &pray, t_min, t_light, id_light, object, stats)
+    }
+
+    /// `occluded` with the ray's per-primitive constants already made.
+    #[allow(clippy::too_many_arguments)]
+    pub fn occluded_prim(
+        &self,
+        scene: &Scene,
+        pray: &PrimRay,
+        t_min: f32,
+        t_light: f32,
+        id_light: u32,
+        object: u32,
+        stats: &mut TraversalStats,
+    ) -> bool {
         for (k, kind) in [PrimKind::Sphere, PrimKind::Quad, PrimKind::Triangle]
             .into_iter()
             .enumerate()
@@ -861,24 +876,16 @@ impl Bvh4 {
             if self.linear_kinds[k] {
                 let n = pool_len(scene, kind);
                 stats.prims += n as u64;
-                if linear::occludes_range(
-                    scene,
-                    kind,
-                    0..n,
-                    &pray,
-                    t_min,
-                    t_light,
-                    id_light,
-                    object,
-                ) {
+                if linear::occludes_range(scene, kind, 0..n, pray, t_min, t_light, id_light, object)
+                {
                     return true;
                 }
             }
         }
         let Some(root) = self.root else { return false };
-        let bray = BoxRay::new(ray);
+        let bray = BoxRay::new(&pray.ray);
         self.occluded_from(
-            scene, root, &pray, &bray, t_min, t_light, id_light, object, stats,
+            scene, root, pray, &bray, t_min, t_light, id_light, object, stats,
         )
     }
 

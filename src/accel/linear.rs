@@ -132,7 +132,7 @@ pub fn intersect_range(
         PrimKind::Quad => {
             let q = &scene.quads;
             for i in range {
-                if let Some(t) = q.intersect(i, &ray.ray, t_min, *t_max) {
+                if let Some(t) = q.intersect(i, &ray.ray, &ray.triangle, t_min, *t_max) {
                     keep_closest(best, hit(t, q.id[i], kind, i, q.object[i]));
                     *t_max = t;
                 }
@@ -188,7 +188,7 @@ pub fn occludes_range(
             let q = &scene.quads;
             range.into_iter().any(|i| {
                 q.object[i] != object
-                    && q.intersect(i, &ray.ray, t_min, t_light)
+                    && q.intersect(i, &ray.ray, &ray.triangle, t_min, t_light)
                         .is_some_and(|t| beats(t, q.id[i]))
             })
         }

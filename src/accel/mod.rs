@@ -16,7 +16,7 @@ use crate::geometry::{Hit, Ray};
 use crate::lanes::{set_lanes, Lane};
 use crate::scene::{Light, LightShape, Scene};
 use bvh4::Bvh4;
-use linear::LinearScan;
+use linear::{LinearScan, PrimRay};
 use packet::{RayPacket, MAX_WIDTH};
 
 /// The `--accel` choice.
@@ -140,10 +140,16 @@ impl Accel {
             Accel::Linear(l) => l
                 .closest_hit(scene, ray, t_min, f32::INFINITY, stats)
                 .is_some_and(|h| h.object == light.object),
-            Accel::Bvh(b) => match light.nearest_hit(ray, t_min) {
-                None => false,
-                Some((t, id)) => !b.occluded(scene, ray, t_min, t, id, light.object, stats),
-            },
+            Accel::Bvh(b) => {
+                // The watertight constants once, for the light and the occluders.
+                let pray = PrimRay::new(ray);
+                match light.nearest_hit_watertight(ray, &pray.triangle, t_min) {
+                    None => false,
+                    Some((t, id)) => {
+                        !b.occluded_prim(scene, &pray, t_min, t, id, light.object, stats)
+                    }
+                }
+            }
         }
     }
 
@@ -202,6 +208,9 @@ impl Accel {
                         t_light[k] = t.lane(k);
                         id_light[k] = light.first_id;
                     }
+                } else if let LightShape::Quads(qs) = &light.shape {
+                    (t_light, id_light, reach) =
+                        p.quad_light_hits(scene, qs, light.first_id, t_min, lanes);
                 } else {
                     for k in set_lanes(lanes) {
                         if let Some((t, id)) = light.nearest_hit(&p.ray(k), t_min) {

@@ -2,7 +2,16 @@
 //!
 //! Scene keys (read in `scene::desc`): `corner`, `u`, `v` for a quad; a box (`min`, `max`)
 //! compiles to six quads.
+//!
+//! The hit test is watertight: whether a ray passes through the quad is decided by the
+//! triangles' watertight edge functions (`triangle::shear`, `edge_functions`) on the
+//! quad's two halves (A, B, C) and (A, C, D), whose four vertices are computed once, when
+//! the scene is compiled. Quads that share an edge in the scene share its two vertices
+//! bit for bit (a box's corners are its exact min and max components), so the edge's
+//! function has the same sign, negated, on both and a ray through the edge hits at least
+//! one of them. The distance is the seed's, from the plane (see `plane_distance`).
 
+use super::triangle::{edge_functions, edge_functions_f64, inside_edges, shear, WatertightRay};
 use super::{Aabb, Ray};
 use crate::lanes::{Lane, V3};
 use glam::Vec3;
@@ -10,9 +19,12 @@ use glam::Vec3;
 /// The seed's parallel-ray threshold on `|n · d|`.
 pub const PARALLEL_EPSILON: f32 = 1e-8;
 
-/// Quads, structure-of-arrays. Each holds the corner Q, edges u and v, the unit normal
-/// n = normalise(u × v), the plane offset D = n · Q and w = (u × v) / |u × v|², which turns a
-/// point on the plane into its (α, β) coordinates along u and v.
+/// Quads, structure-of-arrays. Each holds the corner Q, edges u and v and
+/// w = (u × v) / |u × v|², which turns a point on the plane into its (α, β) coordinates
+/// along u and v (hit points, `spawn::planar_point`); and what the hit test reads, each
+/// together: the four vertices A = Q, B = Q + u, C = Q + u + v, D = Q + v,
+/// `vertices[i][k][axis]` (the edge test reads all twelve, in the ray's axis order), and
+/// the plane, `plane[i]` = [n, D], the unit normal n = normalise(u × v) and D = n · Q.
 #[derive(Clone, Debug, Default)]
 pub struct QuadPool {
     pub qx: Vec<f32>,
@@ -24,13 +36,11 @@ pub struct QuadPool {
     pub vx: Vec<f32>,
     pub vy: Vec<f32>,
     pub vz: Vec<f32>,
-    pub nx: Vec<f32>,
-    pub ny: Vec<f32>,
-    pub nz: Vec<f32>,
-    pub plane_d: Vec<f32>,
     pub wx: Vec<f32>,
     pub wy: Vec<f32>,
     pub wz: Vec<f32>,
+    pub vertices: Vec<[[f32; 3]; 4]>,
+    pub plane: Vec<[f32; 4]>,
     /// Scene-wide primitive id (closest-hit tie-breaker).
     pub id: Vec<u32>,
     /// The scene object each quad belongs to (the six faces of a box share one).
@@ -46,14 +56,25 @@ pub struct Quad {
     pub normal: Vec3,
     pub plane_d: f32,
     pub w: Vec3,
+    /// A = Q, B = Q + u, C = Q + u + v, D = Q + v, as the edge test sees them.
+    pub vertices: [Vec3; 4],
 }
 
 impl Quad {
-    /// Precompute the plane. `None` for a degenerate (zero-area or non-finite) quad.
+    /// Precompute the plane, and the vertices Q, Q + u, (Q + u) + v and Q + v. `None` for
+    /// a degenerate (zero-area or non-finite) quad.
     pub fn new(corner: Vec3, u: Vec3, v: Vec3) -> Option<Self> {
+        let vertices = [corner, corner + u, corner + u + v, corner + v];
+        Self::with_vertices(corner, u, v, vertices)
+    }
+
+    /// The quad `corner`, `u`, `v` whose edge test uses `vertices` (A, B, C, D): these
+    /// must be Q, Q + u, Q + u + v and Q + v up to rounding (`box_faces` gives a box's
+    /// corners exactly). `None` as `new`.
+    pub fn with_vertices(corner: Vec3, u: Vec3, v: Vec3, vertices: [Vec3; 4]) -> Option<Self> {
         let n = u.cross(v);
         let nn = n.dot(n);
-        if nn <= 0.0 || !nn.is_finite() {
+        if nn <= 0.0 || !nn.is_finite() || !vertices.iter().all(|p| p.is_finite()) {
             return None;
         }
         let normal = n / nn.sqrt();
@@ -64,33 +85,36 @@ impl Quad {
             normal,
             plane_d: normal.dot(corner),
             w: n / nn,
+            vertices,
         })
     }
 
     pub fn bounds(&self) -> Aabb {
-        Aabb::from_points(&[
-            self.corner,
-            self.corner + self.u,
-            self.corner + self.v,
-            self.corner + self.u + self.v,
-        ])
+        Aabb::from_points(&self.vertices)
     }
 
-    /// The seed's plane test: t from the plane equation, then 0 ≤ α, β ≤ 1 (inclusive).
+    /// The quad test (two-sided, edges inclusive, watertight) for one ray.
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
-        let (t, hit) = quad_distance(
-            V3::splat(self.corner),
-            V3::splat(self.u),
-            V3::splat(self.v),
-            V3::splat(self.normal),
-            self.plane_d,
-            V3::splat(self.w),
-            V3::splat(ray.origin),
-            V3::splat(ray.dir),
-            t_min,
-            t_max,
-        );
+        self.intersect_watertight(ray, &WatertightRay::new(ray), t_min, t_max)
+    }
+
+    /// `intersect` with the ray's watertight constants `w` already made.
+    #[inline]
+    pub fn intersect_watertight(
+        &self,
+        ray: &Ray,
+        w: &WatertightRay,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<f32> {
+        let [a, b, c, d] = self.vertices;
+        if !passes_through(w, &[a.to_array(), b.to_array(), c.to_array(), d.to_array()]) {
+            return None;
+        }
+        let v = V3::splat;
+        let (o, dir) = (v(ray.origin), v(ray.dir));
+        let (t, hit) = plane_distance(v(self.normal), self.plane_d, o, dir, t_min, t_max);
         hit.then_some(t)
     }
 
@@ -120,13 +144,11 @@ impl QuadPool {
         self.vx.push(q.v.x);
         self.vy.push(q.v.y);
         self.vz.push(q.v.z);
-        self.nx.push(q.normal.x);
-        self.ny.push(q.normal.y);
-        self.nz.push(q.normal.z);
-        self.plane_d.push(q.plane_d);
         self.wx.push(q.w.x);
         self.wy.push(q.w.y);
         self.wz.push(q.w.z);
+        self.vertices.push(q.vertices.map(|p| p.to_array()));
+        self.plane.push(q.normal.extend(q.plane_d).to_array());
         self.id.push(id);
         self.object.push(object);
     }
@@ -143,18 +165,22 @@ impl QuadPool {
             &mut self.vx,
             &mut self.vy,
             &mut self.vz,
-            &mut self.nx,
-            &mut self.ny,
-            &mut self.nz,
-            &mut self.plane_d,
             &mut self.wx,
             &mut self.wy,
             &mut self.wz,
         ] {
             super::permute(v, order);
         }
+        super::permute(&mut self.vertices, order);
+        super::permute(&mut self.plane, order);
         super::permute(&mut self.id, order);
         super::permute(&mut self.object, order);
+    }
+
+    #[inline]
+    pub fn vertices(&self, i: usize) -> [Vec3; 4] {
+        let [a, b, c, d] = self.vertices[i];
+        [a, b, c, d].map(Vec3::from_array)
     }
 
     #[inline]
@@ -163,68 +189,162 @@ impl QuadPool {
             corner: Vec3::new(self.qx[i], self.qy[i], self.qz[i]),
             u: Vec3::new(self.ux[i], self.uy[i], self.uz[i]),
             v: Vec3::new(self.vx[i], self.vy[i], self.vz[i]),
-            normal: Vec3::new(self.nx[i], self.ny[i], self.nz[i]),
-            plane_d: self.plane_d[i],
+            normal: self.normal(i),
+            plane_d: self.plane[i][3],
             w: Vec3::new(self.wx[i], self.wy[i], self.wz[i]),
+            vertices: self.vertices(i),
         }
     }
 
     #[inline]
     pub fn normal(&self, i: usize) -> Vec3 {
-        Vec3::new(self.nx[i], self.ny[i], self.nz[i])
+        let [x, y, z, _] = self.plane[i];
+        Vec3::new(x, y, z)
     }
 
     pub fn bounds(&self, i: usize) -> Aabb {
-        self.get(i).bounds()
+        Aabb::from_points(&self.vertices(i))
     }
 
-    #[inline]
-    pub fn intersect(&self, i: usize, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
-        self.get(i).intersect(ray, t_min, t_max)
+    /// The quad test on quad `i` (`w`: the ray's watertight constants).
+    #[inline(always)]
+    pub fn intersect(
+        &self,
+        i: usize,
+        ray: &Ray,
+        w: &WatertightRay,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<f32> {
+        if !passes_through(w, &self.vertices[i]) {
+            return None;
+        }
+        let [nx, ny, nz, d] = self.plane[i];
+        let n = V3::splat(Vec3::new(nx, ny, nz));
+        let v = V3::splat;
+        let (t, hit) = plane_distance(n, d, v(ray.origin), v(ray.dir), t_min, t_max);
+        hit.then_some(t)
     }
 }
 
-/// The quad test over lanes (`Quad::intersect` is its one-lane case).
-#[allow(clippy::too_many_arguments)]
+/// The scalar edge test: does the ray (`w`, its watertight constants) pass through the
+/// quad with vertices A, B, C, D (edges inclusive)? The lane steps below at `f32`, with
+/// the triangles' rule for an outer edge function that rounds to exactly zero
+/// (recomputed in f64, so its sign is exact and the same on every quad that shares the
+/// edge).
 #[inline(always)]
-pub fn quad_distance<L: Lane>(
-    corner: V3<L>,
-    u: V3<L>,
-    v: V3<L>,
+pub fn passes_through(w: &WatertightRay, p: &[[f32; 3]; 4]) -> bool {
+    let [kx, ky, kz] = w.axes;
+    // One check for the twelve reads below.
+    assert!(kx < 3 && ky < 3 && kz < 3);
+    let o = w.origin;
+    let vertex = |m: usize| shear([p[m][kx], p[m][ky], p[m][kz]], o, w.sx, w.sy);
+    let (a, b, c, d) = (vertex(0), vertex(1), vertex(2), vertex(3));
+    let mut e = quad_edge_functions(a, b, c, d);
+    if outer_edge_is_zero(e) {
+        e = quad_edge_functions_f64(a, b, c, d);
+    }
+    inside_quad(e)
+}
+
+// The quad test in steps over `Lane`, as the triangle's: the scalar tests above and a
+// quad against a packet of rays (`accel::packet`).
+
+/// The edge functions of the quad's halves (A, B, C) and (A, C, D), from its sheared
+/// vertices: `edge_functions` of each. Their outer edges are the quad's: BC, AB (the
+/// first's u and w), CD, DA (the second's u and v), each the difference of the same two
+/// products of the same two sheared vertices wherever that edge is tested, so its sign
+/// agrees (negated) on every quad or triangle sharing it. The diagonal (the first's v,
+/// the second's w) is computed once and negated, so the two halves agree on it too.
+#[inline(always)]
+pub fn quad_edge_functions<L: Lane>(a: [L; 3], b: [L; 3], c: [L; 3], d: [L; 3]) -> [[L; 3]; 2] {
+    let [u1, v1, w1] = edge_functions(a, b, c);
+    // `edge_functions(a, c, d)` without its third, c × a = −(a × c).
+    let u2 = d[0] * c[1] - d[1] * c[0];
+    let v2 = a[0] * d[1] - a[1] * d[0];
+    [[u1, v1, w1], [u2, v2, v1.flip_sign()]]
+}
+
+/// `quad_edge_functions` in f64 (`edge_functions_f64`), for a ray where an outer edge
+/// function rounded to zero.
+#[inline(never)]
+pub fn quad_edge_functions_f64(
+    a: [f32; 3],
+    b: [f32; 3],
+    c: [f32; 3],
+    d: [f32; 3],
+) -> [[f32; 3]; 2] {
+    let [u1, v1, w1] = edge_functions_f64(a, b, c);
+    let [u2, v2, _] = edge_functions_f64(a, c, d);
+    [[u1, v1, w1], [u2, v2, -v1]]
+}
+
+/// The lanes where one of the quad's four outer edge functions is exactly zero: those
+/// are recomputed in f64 (the scalar test; a packet redoes such lanes with it). A zero
+/// diagonal needs no such care: both halves include it, and no other quad shares it.
+#[inline(always)]
+pub fn outer_edge_is_zero<L: Lane>([[u1, _, w1], [u2, v2, _]]: [[L; 3]; 2]) -> L::Mask {
+    let zero = L::splat(0.0);
+    u1.eq(zero) | w1.eq(zero) | u2.eq(zero) | v2.eq(zero)
+}
+
+/// The lanes that pass through the quad: inside one of its halves (`inside_edges` of
+/// either, edges inclusive).
+#[inline(always)]
+pub fn inside_quad<L: Lane>([e1, e2]: [[L; 3]; 2]) -> L::Mask {
+    inside_edges(e1) | inside_edges(e2)
+}
+
+/// The seed's distance to the quad's plane (n, D), t = (D − n · o) / (n · d), and the
+/// lanes where it counts: t in `[t_min, t_max]` and |n · d| ≥ `PARALLEL_EPSILON`. Not
+/// the watertight test's own distance, interpolated from the vertices' depths: its
+/// error grows with the quad's size (up to ~1e-4 for a 555-unit Cornell wall), which
+/// made rays spawned off a wall meet that wall again; the plane's t is exact for
+/// axis-aligned quads.
+#[inline(always)]
+pub fn plane_distance<L: Lane>(
     normal: V3<L>,
     plane_d: L,
-    w: V3<L>,
     origin: V3<L>,
     dir: V3<L>,
     t_min: L,
     t_max: L,
 ) -> (L, L::Mask) {
-    let (zero, one) = (L::splat(0.0), L::splat(1.0));
     let denom = normal.dot(dir);
     let parallel = denom.abs().lt(L::splat(PARALLEL_EPSILON));
     let t = (plane_d - normal.dot(origin)) / denom;
-    let in_range = t.ge(t_min) & t.le(t_max);
-    let hp = (origin + dir.scale(t)) - corner;
-    let alpha = w.dot(hp.cross(v));
-    let beta = w.dot(u.cross(hp));
-    let inside = alpha.ge(zero) & alpha.le(one) & beta.ge(zero) & beta.le(one);
-    (t, !parallel & in_range & inside)
+    (t, !parallel & t.ge(t_min) & t.le(t_max))
 }
 
 /// The six outward-facing quads of the box with the given component-wise min and max
-/// corners. (The seed's z-min face pointed inward; see the README's differences.)
-pub fn box_faces(min: Vec3, max: Vec3) -> [(Vec3, Vec3, Vec3); 6] {
+/// corners, with their vertices made of those exact components (so faces sharing an
+/// edge share its vertices bit for bit). Corners and edges as the seed's, except that
+/// its z-min face pointed inward (see the README's differences). Faces too large for
+/// `Quad::new` (|u × v|² not finite) are left out.
+pub fn box_faces(min: Vec3, max: Vec3) -> Vec<Quad> {
     let dx = Vec3::new(max.x - min.x, 0.0, 0.0);
     let dy = Vec3::new(0.0, max.y - min.y, 0.0);
     let dz = Vec3::new(0.0, 0.0, max.z - min.z);
+    // Corner k of the box: bit 0, 1, 2 set for max.x, max.y, max.z.
+    let p = |k: usize| {
+        Vec3::new(
+            if k & 1 == 0 { min.x } else { max.x },
+            if k & 2 == 0 { min.y } else { max.y },
+            if k & 4 == 0 { min.z } else { max.z },
+        )
+    };
+    // (u, v, A, B, C, D as corner numbers), the corner being A.
     [
-        (Vec3::new(min.x, min.y, max.z), dx, dy),  // front, +z
-        (Vec3::new(max.x, min.y, max.z), -dz, dy), // right, +x
-        (Vec3::new(max.x, min.y, min.z), -dx, dy), // back, −z
-        (Vec3::new(min.x, min.y, min.z), dz, dy),  // left, −x
-        (Vec3::new(min.x, max.y, max.z), dx, -dz), // top, +y
-        (Vec3::new(min.x, min.y, min.z), dx, dz),  // bottom, −y
+        (dx, dy, [4, 5, 7, 6]),  // front, +z
+        (-dz, dy, [5, 1, 3, 7]), // right, +x
+        (-dx, dy, [1, 0, 2, 3]), // back, −z
+        (dz, dy, [0, 4, 6, 2]),  // left, −x
+        (dx, -dz, [6, 7, 3, 2]), // top, +y
+        (dx, dz, [0, 1, 5, 4]),  // bottom, −y
     ]
+    .into_iter()
+    .filter_map(|(u, v, k)| Quad::with_vertices(p(k[0]), u, v, k.map(p)))
+    .collect()
 }
 
 #[cfg(test)]
@@ -235,11 +355,48 @@ mod tests {
     fn box_faces_point_outward() {
         let (min, max) = (Vec3::new(1.0, 2.0, 3.0), Vec3::new(4.0, 6.0, 8.0));
         let centre = (min + max) * 0.5;
-        for (corner, u, v) in box_faces(min, max) {
-            let q = Quad::new(corner, u, v).unwrap();
-            let face_centre = corner + (u + v) * 0.5;
+        let faces = box_faces(min, max);
+        assert_eq!(faces.len(), 6);
+        for q in faces {
+            let face_centre = q.corner + (q.u + q.v) * 0.5;
             assert!(q.normal.dot(face_centre - centre) > 0.0, "{q:?}");
         }
+    }
+
+    #[test]
+    fn box_face_vertices_are_exact_corners() {
+        // Extents whose sums round: Q + u is not max there, the stored vertex is.
+        let (min, max) = (Vec3::new(0.1, -3.7, 1234.567), Vec3::new(0.7, 2.6, 1251.87));
+        let is_corner = |p: Vec3| {
+            (0..3).all(|k| p[k].to_bits() == min[k].to_bits() || p[k].to_bits() == max[k].to_bits())
+        };
+        let faces = box_faces(min, max);
+        let mut rounded = 0;
+        for q in &faces {
+            let [a, b, c, d] = q.vertices;
+            assert_eq!(a, q.corner);
+            for (p, want) in [
+                (b, q.corner + q.u),
+                (c, q.corner + q.u + q.v),
+                (d, q.corner + q.v),
+            ] {
+                assert!(is_corner(p), "{q:?}");
+                assert!((p - want).abs().max_element() <= 1e-3, "{q:?}");
+                rounded += (p != want) as u32;
+            }
+        }
+        assert!(rounded > 0, "the case should need the exact corners");
+        // Each box edge is an edge of exactly two faces, with the same two vertices.
+        let key = |p: Vec3| p.to_array().map(f32::to_bits);
+        let mut edges = std::collections::HashMap::new();
+        for q in &faces {
+            for k in 0..4 {
+                let (p, r) = (key(q.vertices[k]), key(q.vertices[(k + 1) % 4]));
+                *edges.entry((p.min(r), p.max(r))).or_insert(0) += 1;
+            }
+        }
+        assert_eq!(edges.len(), 12);
+        assert!(edges.values().all(|&n| n == 2));
     }
 
     #[test]

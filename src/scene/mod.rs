@@ -226,6 +226,24 @@ impl Light {
     /// The light object's own nearest hit `(t, primitive id)` at t ≥ `t_min`, by the same
     /// kernels and `(t, id)` rule as the acceleration structures.
     pub fn nearest_hit(&self, ray: &Ray, t_min: f32) -> Option<(f32, u32)> {
+        match self.shape {
+            LightShape::Point { center, radius } => {
+                sphere_intersect(center, radius, ray, t_min, f32::INFINITY)
+                    .map(|t| (t, self.first_id))
+            }
+            _ => self.nearest_hit_watertight(ray, &WatertightRay::new(ray), t_min),
+        }
+    }
+
+    /// `nearest_hit` with the ray's watertight constants `w` already made (unused by a
+    /// point light).
+    #[inline]
+    pub fn nearest_hit_watertight(
+        &self,
+        ray: &Ray,
+        w: &WatertightRay,
+        t_min: f32,
+    ) -> Option<(f32, u32)> {
         let mut best: Option<(f32, u32)> = None;
         let mut keep = |t: f32, id: u32| {
             if best.is_none_or(|(bt, bid)| t < bt || (t == bt && id < bid)) {
@@ -241,13 +259,12 @@ impl Light {
             }
             LightShape::Quads(qs) => {
                 for (k, q) in qs.iter().enumerate() {
-                    if let Some(t) = q.intersect(ray, t_min, far) {
+                    if let Some(t) = q.intersect_watertight(ray, w, t_min, far) {
                         keep(t, self.first_id + k as u32);
                     }
                 }
             }
             LightShape::Triangles(ts) => {
-                let w = WatertightRay::new(ray);
                 for (k, tri) in ts.iter().enumerate() {
                     if let Some(t) = w.intersect(*tri, t_min, far) {
                         keep(t, self.first_id + k as u32);
@@ -521,10 +538,7 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
                 if !(min.cmplt(max).all()) {
                     return Err(oerr("the two corners must differ on every axis".into()));
                 }
-                let faces: Vec<Quad> = box_faces(min, max)
-                    .iter()
-                    .filter_map(|&(c, u, v)| Quad::new(c, u, v))
-                    .collect();
+                let faces = box_faces(min, max);
                 for f in &faces {
                     quads.push(f, id(), object);
                 }

@@ -119,7 +119,8 @@ impl Rng {
 }
 
 /// The compiled scene moved by x → `scale` · x + `offset` (scale > 0): sphere centres and
-/// radii, quads (rebuilt from the moved corner and scaled edges, as `compile` builds them),
+/// radii, quads (rebuilt from the moved corner and scaled edges, as `compile` builds them,
+/// with their vertices moved, so vertices shared by quads stay shared bit for bit),
 /// triangle vertices, the lights' copies of their primitives (moved by the same f32
 /// operations, so they keep matching the pools bit for bit) and the camera (origin and
 /// viewport corner moved, pixel steps scaled: ray directions stay the same up to the
@@ -130,7 +131,9 @@ pub fn transform_scene(scene: &Scene, scale: f32, offset: glam::Vec3) -> Scene {
     use raytracer::geometry::{Aabb, QuadPool, TrianglePool};
     use raytracer::scene::LightShape;
     let p = |v: glam::Vec3| v * scale + offset;
-    let quad = |q: &Quad| Quad::new(p(q.corner), q.u * scale, q.v * scale).unwrap();
+    let quad = |q: &Quad| {
+        Quad::with_vertices(p(q.corner), q.u * scale, q.v * scale, q.vertices.map(p)).unwrap()
+    };
     let mut s = scene.clone();
     for i in 0..s.spheres.len() {
         let c = p(s.spheres.center(i));
