@@ -14,11 +14,20 @@ fn main() {
         eprintln!("usage: exr_diff A.exr B.exr");
         std::process::exit(2);
     };
-    let (a, b) = (
-        read_exr(Path::new(a)).unwrap(),
-        read_exr(Path::new(b)).unwrap(),
-    );
-    assert_eq!((a.width, a.height), (b.width, b.height), "sizes differ");
+    let read = |p: &str| {
+        read_exr(Path::new(p)).unwrap_or_else(|e| {
+            eprintln!("exr_diff: {e}");
+            std::process::exit(2);
+        })
+    };
+    let (a, b) = (read(a), read(b));
+    if (a.width, a.height) != (b.width, b.height) {
+        eprintln!(
+            "exr_diff: the sizes differ: {}x{} and {}x{}",
+            a.width, a.height, b.width, b.height
+        );
+        std::process::exit(2);
+    }
     let (mut changed, mut max, mut sum, mut max_at) = (0usize, 0.0f32, 0.0f64, (0, 0));
     for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
         let same = (0..3).all(|c| p[c].to_bits() == q[c].to_bits());
