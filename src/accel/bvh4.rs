@@ -11,7 +11,7 @@ use super::TraversalStats;
 use crate::geometry::spawn::gamma;
 use crate::geometry::sphere::{sphere_distance, SphereRay};
 use crate::geometry::triangle::{Columns, WatertightRay};
-use crate::geometry::{Aabb, Hit, PrimKind, Ray};
+use crate::geometry::{beats, Aabb, Hit, PrimKind, Ray};
 use crate::lanes::Lane;
 use crate::lanes::V3;
 use crate::scene::Scene;
@@ -362,7 +362,7 @@ impl Closest {
     /// `keep_closest` then `t_max = t`, as `linear::intersect_range` does for a hit.
     #[inline(always)]
     fn offer(&mut self, t: f32, id: u32, kind: PrimKind, index: usize) {
-        if t < self.t || (t == self.t && id < self.id) {
+        if beats((t, id), (self.t, self.id)) {
             self.t = t;
             self.id = id;
             self.kind = kind;

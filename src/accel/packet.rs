@@ -20,7 +20,7 @@ use crate::geometry::sphere::sphere_distance;
 use crate::geometry::triangle::{
     edge_functions, inside_edges, shear, watertight_distance, Columns, TrianglePool, WatertightRay,
 };
-use crate::geometry::{keep_closest, Aabb, Hit, PrimKind, Ray};
+use crate::geometry::{beats, keep_closest, Aabb, Hit, PrimKind, Ray};
 use crate::lanes::{set_lanes, Lane, Mask, V3};
 use crate::scene::Scene;
 use std::cell::OnceCell;
@@ -269,7 +269,7 @@ impl<L: Lane> RayPacket<L> {
             }
             for j in set_lanes(bits) {
                 let t = out[j];
-                if found >> j & 1 == 0 || t < best_t[j] || (t == best_t[j] && id < best_id[j]) {
+                if found >> j & 1 == 0 || beats((t, id), (best_t[j], best_id[j])) {
                     best_t[j] = t;
                     best_id[j] = id;
                     found |= 1 << j;

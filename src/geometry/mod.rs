@@ -70,8 +70,15 @@ impl Hit {
     /// Does a candidate at `(t, id)` beat this hit?
     #[inline]
     pub fn is_beaten_by(&self, t: f32, id: u32) -> bool {
-        t < self.t || (t == self.t && id < self.id)
+        beats((t, id), (self.t, self.id))
     }
+}
+
+/// The closest-hit rule: does `(t, id)` beat `(best_t, best_id)`? The nearer wins; at
+/// equal distances, the smaller primitive id.
+#[inline(always)]
+pub fn beats((t, id): (f32, u32), (best_t, best_id): (f32, u32)) -> bool {
+    t < best_t || (t == best_t && id < best_id)
 }
 
 /// Reorder `v` so that `v[new] = old_v[order[new]]`.

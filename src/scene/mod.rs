@@ -14,7 +14,7 @@ use crate::error::{Error, Result};
 use crate::geometry::quad::{box_faces, Quad};
 use crate::geometry::sphere::sphere_intersect;
 use crate::geometry::triangle::{is_proper_triangle, WatertightRay};
-use crate::geometry::{Aabb, QuadPool, Ray, SpherePool, TrianglePool};
+use crate::geometry::{beats, Aabb, QuadPool, Ray, SpherePool, TrianglePool};
 use crate::material::{Material, Phong};
 use desc::{AspectDesc, MaterialDesc, ObjectDesc, SceneDesc};
 use glam::{DVec3, Vec3};
@@ -246,7 +246,7 @@ impl Light {
     ) -> Option<(f32, u32)> {
         let mut best: Option<(f32, u32)> = None;
         let mut keep = |t: f32, id: u32| {
-            if best.is_none_or(|(bt, bid)| t < bt || (t == bt && id < bid)) {
+            if best.is_none_or(|b| beats((t, id), b)) {
                 best = Some((t, id));
             }
         };
