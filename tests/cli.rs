@@ -438,6 +438,14 @@ fn box_with_corners_equal_on_one_axis() {
 }
 
 #[test]
+fn box_whose_extent_overflows() {
+    let text = with_object(
+        "type = \"box\"\ncorners = [[-3e38, 0, -3], [3e38, 1, -2]]\nmaterial = \"red\"\n",
+    );
+    Case::scene(&text).fails_with(&[EXTRA_OBJECT_LINE, "object 3 (box)", "too large"]);
+}
+
+#[test]
 fn samples_per_pixel_zero() {
     Case::scene(&edit("samples_per_pixel = 1", "samples_per_pixel = 0"))
         .fails_with(&[CAMERA_LINE, "samples_per_pixel"]);

@@ -539,6 +539,12 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
                     return Err(oerr("the two corners must differ on every axis".into()));
                 }
                 let faces = box_faces(min, max);
+                // A face is dropped when its edge (max − min) overflows to infinity.
+                if faces.len() < 6 {
+                    return Err(oerr(
+                        "the box is too large: max − min overflows f32 on some axis".into(),
+                    ));
+                }
                 for f in &faces {
                     quads.push(f, id(), object);
                 }
