@@ -15,6 +15,7 @@ pub mod lanes;
 pub mod material;
 pub mod metrics;
 pub mod output;
+pub mod pow;
 pub mod render;
 pub mod rng;
 pub mod scene;
