@@ -142,6 +142,8 @@ pub struct Tracer<'a> {
     /// it off): shadow rays of light samples that add nothing lit or not, and packets
     /// that miss the scene's bounds. The image is the same bits either way.
     pub specialize: bool,
+    /// The packet tracer's per-object tables (`packet::ShadeTables`).
+    pub(crate) tables: packet::ShadeTables,
 }
 
 impl<'a> Tracer<'a> {
@@ -156,6 +158,7 @@ impl<'a> Tracer<'a> {
             accel,
             sampler,
             specialize: true,
+            tables: packet::ShadeTables::new(scene),
         }
     }
 
