@@ -34,6 +34,24 @@ const MIRROR: usize = 3;
 /// Diffuse, Metal, Dielectric: a bounce at the camera vertex, a plain colour below it.
 const PATH: usize = 4;
 const CLASSES: usize = 5;
+/// A lane past the packet's width: in no class (its bit stays inside its byte).
+const NO_LANE: u8 = 7;
+
+/// The lanes of each class, from the lanes' classes. Byte k of `onehot` is
+/// 1 << (lane k's class); class c's lanes are bit c of each byte, gathered into the top
+/// byte by one multiply (its partial products land on distinct bits, so nothing
+/// carries). All in registers: `by_class[class] |= 1 << k` went through memory and
+/// failed its store-to-load forwarding when the mask was read back (perf).
+#[inline(always)]
+fn lanes_by_class(classes: [u8; MAX_WIDTH]) -> [u32; CLASSES] {
+    let mut onehot = 0u64;
+    for (k, &c) in classes.iter().enumerate() {
+        onehot |= (1u64 << c) << (8 * k);
+    }
+    std::array::from_fn(|c| {
+        ((onehot >> c & 0x0101_0101_0101_0101).wrapping_mul(0x0102_0408_1020_4080) >> 56) as u32
+    })
+}
 
 /// What the packet tracer needs of a hit's object, indexed by object + 1 (entry 0: no
 /// hit), so `shade_packet` sorts its lanes by table lookups instead of a `match` per
@@ -180,10 +198,13 @@ impl Tracer<'_> {
             Some(h) if active >> k & 1 != 0 => h.object as usize + 1,
             _ => 0,
         });
-        let mut by_class = [0u32; CLASSES];
-        for (k, &j) in slot.iter().enumerate().take(L::WIDTH) {
-            by_class[t.class[j] as usize] |= 1 << k;
-        }
+        let by_class = lanes_by_class(std::array::from_fn(|k| {
+            if k < L::WIDTH {
+                t.class[slot[k]]
+            } else {
+                NO_LANE
+            }
+        }));
         let background = weight(scene.background);
         for k in set_lanes(by_class[MISS] & active) {
             out[k] = background;
@@ -310,5 +331,39 @@ impl Tracer<'_> {
             out[k] = weight(mixed.lane(k));
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every assignment of classes (and "no lane") to the first five lanes, with the
+    /// other three cycling: the masks are those of a plain loop.
+    #[test]
+    fn lanes_by_class_is_the_plain_loop() {
+        let values = [MISS, LIGHT, PHONG, MIRROR, PATH, NO_LANE as usize];
+        let mut n = 0u32;
+        for code in 0..values.len().pow(5) {
+            let mut c = code;
+            let classes: [u8; MAX_WIDTH] = std::array::from_fn(|k| {
+                let v = if k < 5 {
+                    values[c % values.len()]
+                } else {
+                    values[(code + k) % values.len()]
+                };
+                c /= values.len();
+                v as u8
+            });
+            let mut expected = [0u32; CLASSES];
+            for (k, &cl) in classes.iter().enumerate() {
+                if (cl as usize) < CLASSES {
+                    expected[cl as usize] |= 1 << k;
+                }
+            }
+            assert_eq!(lanes_by_class(classes), expected, "{classes:?}");
+            n += 1;
+        }
+        assert_eq!(n, 7776);
     }
 }
