@@ -3,6 +3,13 @@
 //! groups them: 4x2 pixels at one sample index for 8 lanes, 2x2 for 4), and the shadow
 //! rays from the `bunny` camera rays' Phong hits to its point light.
 //!
+//! The packets are handed over with their rays already in lanes (`common::in_lanes`),
+//! as the renderer makes them and as `rtcIntersect8` takes them; the timed loop makes
+//! each `RayPacket` (`from_lanes`: reciprocals, signs, sphere constants) and traces it.
+//! (Until 2026-12-01 it also transposed an array of eight rays per packet,
+//! `RayPacket::new`, which the renderer never runs: ~10% of a `bunny` camera packet's
+//! instructions.)
+//!
 //! `cargo bench --bench packets`; throughput is in rays (elements) per second. Before
 //! timing, every width's answers are checked against the scalar ones (same t, same
 //! primitive, same visibility).
@@ -17,16 +24,16 @@ use raytracer::scene::{Overrides, Scene};
 use wide::f32x8;
 
 mod common;
-use common::{camera_packets, flatten, shadow_packets, Packet};
+use common::{camera_packets, flatten, in_lanes, shadow_packets, LanePacket};
 
-fn closest_packets<L: Lane>(scene: &Scene, accel: &Accel, packets: &[Packet]) -> Vec<u64> {
+fn closest_packets<L: Lane>(scene: &Scene, accel: &Accel, packets: &[LanePacket<L>]) -> Vec<u64> {
     let mut stats = TraversalStats::default();
     let mut out = Vec::new();
-    for (rays, active) in packets {
-        let p = RayPacket::<L>::new(rays, *active);
+    for lp in packets {
+        let p = RayPacket::<L>::from_lanes(lp.origin, lp.dir, lp.active);
         let hits = accel.closest_hit_packet(scene, &p, T_MIN, &mut stats);
         for (k, h) in hits.iter().enumerate().take(L::WIDTH) {
-            if active >> k & 1 != 0 {
+            if lp.active >> k & 1 != 0 {
                 out.push(h.map_or(u64::MAX, |h| (h.t.to_bits() as u64) << 32 | h.id as u64));
             }
         }
@@ -44,16 +51,16 @@ fn closest_scalar(scene: &Scene, accel: &Accel, rays: &[Ray]) -> Vec<u64> {
     out
 }
 
-fn visible_packets<L: Lane>(scene: &Scene, accel: &Accel, packets: &[Packet]) -> Vec<bool> {
+fn visible_packets<L: Lane>(scene: &Scene, accel: &Accel, packets: &[LanePacket<L>]) -> Vec<bool> {
     let mut stats = TraversalStats::default();
     let light = &scene.lights[0];
     let mut out = Vec::new();
-    for (rays, active) in packets {
-        let p = RayPacket::<L>::new(rays, *active);
-        let v = accel.light_visible_packet(scene, &p, T_MIN, light, *active, &mut stats);
+    for lp in packets {
+        let p = RayPacket::<L>::from_lanes(lp.origin, lp.dir, lp.active);
+        let v = accel.light_visible_packet(scene, &p, T_MIN, light, lp.active, &mut stats);
         out.extend(
             (0..L::WIDTH)
-                .filter(|k| active >> k & 1 != 0)
+                .filter(|k| lp.active >> k & 1 != 0)
                 .map(|k| v >> k & 1 != 0),
         );
     }
@@ -86,16 +93,17 @@ fn bench_packets(c: &mut Criterion) {
         let (p4, p8) = (camera_packets(&scene, 4), camera_packets(&scene, 8));
         // The scalar path traces the 8-wide packets' rays, in their order.
         let r1 = flatten(&p8);
+        let (l4, l8) = (in_lanes::<glam::Vec4>(&p4), in_lanes::<f32x8>(&p8));
         // Validate: every width gives the scalar answers (4-wide packets order the rays
         // differently: compare those with their own flattening).
         assert_eq!(
             closest_scalar(&scene, &accel, &r1),
-            closest_packets::<f32x8>(&scene, &accel, &p8),
+            closest_packets::<f32x8>(&scene, &accel, &l8),
             "8-wide camera rays of {name}"
         );
         assert_eq!(
             closest_scalar(&scene, &accel, &flatten(&p4)),
-            closest_packets::<glam::Vec4>(&scene, &accel, &p4),
+            closest_packets::<glam::Vec4>(&scene, &accel, &l4),
             "4-wide camera rays of {name}"
         );
 
@@ -106,10 +114,10 @@ fn bench_packets(c: &mut Criterion) {
             b.iter(|| closest_scalar(&scene, &accel, &r1).len())
         });
         group.bench_function("4-wide", |b| {
-            b.iter(|| closest_packets::<glam::Vec4>(&scene, &accel, &p4).len())
+            b.iter(|| closest_packets::<glam::Vec4>(&scene, &accel, &l4).len())
         });
         group.bench_function("8-wide", |b| {
-            b.iter(|| closest_packets::<f32x8>(&scene, &accel, &p8).len())
+            b.iter(|| closest_packets::<f32x8>(&scene, &accel, &l8).len())
         });
         group.finish();
 
@@ -121,13 +129,14 @@ fn bench_packets(c: &mut Criterion) {
             shadow_packets(&scene, &accel, &p8),
         );
         let s1 = flatten(&s8);
+        let (t4, t8) = (in_lanes::<glam::Vec4>(&s4), in_lanes::<f32x8>(&s8));
         assert_eq!(
             visible_scalar(&scene, &accel, &s1),
-            visible_packets::<f32x8>(&scene, &accel, &s8)
+            visible_packets::<f32x8>(&scene, &accel, &t8)
         );
         assert_eq!(
             visible_scalar(&scene, &accel, &flatten(&s4)),
-            visible_packets::<glam::Vec4>(&scene, &accel, &s4)
+            visible_packets::<glam::Vec4>(&scene, &accel, &t4)
         );
         let mut group = c.benchmark_group(format!("shadow_rays/{name}"));
         group.sample_size(10);
@@ -136,10 +145,10 @@ fn bench_packets(c: &mut Criterion) {
             b.iter(|| visible_scalar(&scene, &accel, &s1).len())
         });
         group.bench_function("4-wide", |b| {
-            b.iter(|| visible_packets::<glam::Vec4>(&scene, &accel, &s4).len())
+            b.iter(|| visible_packets::<glam::Vec4>(&scene, &accel, &t4).len())
         });
         group.bench_function("8-wide", |b| {
-            b.iter(|| visible_packets::<f32x8>(&scene, &accel, &s8).len())
+            b.iter(|| visible_packets::<f32x8>(&scene, &accel, &t8).len())
         });
         group.finish();
     }

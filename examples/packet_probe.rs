@@ -13,7 +13,7 @@
 #[path = "../benches/common/mod.rs"]
 mod common;
 
-use common::{camera_packets, flatten, shadow_packets, Packet};
+use common::{camera_packets, flatten, in_lanes, shadow_packets, LanePacket, Packet};
 use raytracer::accel::packet::RayPacket;
 use raytracer::accel::{Accel, AccelKind, TraversalStats};
 use raytracer::integrator::T_MIN;
@@ -21,12 +21,14 @@ use raytracer::lanes::Lane;
 use raytracer::scene::{Overrides, Scene};
 
 /// Closest hits (camera) or visible lanes (shadow) of every packet: the count of hits.
-/// Width 1 traces the packets' rays one at a time (flattening them is counted).
+/// Width 1 traces the packets' rays one at a time (flattening them is counted); the
+/// wider ones take the packets' rays already in lanes, as the bench does.
 #[inline(never)]
 fn trace_all<L: Lane>(
     scene: &Scene,
     accel: &Accel,
     packets: &[Packet],
+    lanes: &[LanePacket<L>],
     shadow: bool,
     stats: &mut TraversalStats,
 ) -> u64 {
@@ -43,10 +45,11 @@ fn trace_all<L: Lane>(
         }
         return hits;
     }
-    for (rays, active) in packets {
-        let p = RayPacket::<L>::new(rays, *active);
+    for lp in lanes {
+        let p = RayPacket::<L>::from_lanes(lp.origin, lp.dir, lp.active);
         hits += if shadow {
-            let v = accel.light_visible_packet(scene, &p, T_MIN, &scene.lights[0], *active, stats);
+            let v =
+                accel.light_visible_packet(scene, &p, T_MIN, &scene.lights[0], lp.active, stats);
             v.count_ones() as u64
         } else {
             let h = accel.closest_hit_packet(scene, &p, T_MIN, stats);
@@ -79,9 +82,15 @@ fn main() {
     }
     let mut stats = TraversalStats::default();
     let hits = match width {
-        8 => trace_all::<wide::f32x8>(&scene, &accel, &packets, shadow, &mut stats),
-        4 => trace_all::<glam::Vec4>(&scene, &accel, &packets, shadow, &mut stats),
-        _ => trace_all::<f32>(&scene, &accel, &packets, shadow, &mut stats),
+        8 => {
+            let lanes = in_lanes(&packets);
+            trace_all::<wide::f32x8>(&scene, &accel, &packets, &lanes, shadow, &mut stats)
+        }
+        4 => {
+            let lanes = in_lanes(&packets);
+            trace_all::<glam::Vec4>(&scene, &accel, &packets, &lanes, shadow, &mut stats)
+        }
+        _ => trace_all::<f32>(&scene, &accel, &packets, &[], shadow, &mut stats),
     };
     let rays: u32 = packets.iter().map(|(_, a)| a.count_ones()).sum();
     let set = if shadow { "shadow" } else { "camera" };

@@ -1,12 +1,14 @@
 //! Ray sets shared by `benches/packets.rs` and `examples/packet_probe.rs`: a scene's
 //! camera rays in packets as the renderer groups them, and the shadow rays from their
-//! hits to the first light.
+//! hits to the first light; and the packets' rays in lanes (`in_lanes`), the form the
+//! renderer makes them in and the form Embree's `rtcIntersect8` is handed (SoA).
 
 use raytracer::accel::packet::MAX_WIDTH;
 use raytracer::accel::Accel;
 use raytracer::geometry::spawn::spawn_ray;
 use raytracer::geometry::Ray;
 use raytracer::integrator::{footprint, Tracer};
+use raytracer::lanes::{Lane, V3};
 use raytracer::rng::{slot, SampleKey};
 use raytracer::scene::Scene;
 
@@ -84,6 +86,39 @@ pub fn flatten(packets: &[Packet]) -> Vec<Ray> {
             (0..MAX_WIDTH)
                 .filter(move |k| active >> k & 1 != 0)
                 .map(move |k| rays[k])
+        })
+        .collect()
+}
+
+/// A packet's rays in lanes, inactive lanes holding a copy of the first active ray (as
+/// `RayPacket::new` fills them), and its active mask.
+pub struct LanePacket<L> {
+    pub origin: V3<L>,
+    pub dir: V3<L>,
+    pub active: u32,
+}
+
+/// `packets` transposed into lanes once, before any timing: the renderer never builds a
+/// packet from an array of rays (it makes rays in lanes and calls
+/// `RayPacket::from_lanes`), and Embree's packet calls take their rays as SoA arrays.
+pub fn in_lanes<L: Lane>(packets: &[Packet]) -> Vec<LanePacket<L>> {
+    packets
+        .iter()
+        .map(|(rays, active)| {
+            let first = active.trailing_zeros() as usize;
+            let ray = |k: usize| &rays[if active >> k & 1 != 0 { k } else { first }];
+            let v3 = |f: &dyn Fn(&Ray) -> glam::Vec3| {
+                V3::new(
+                    L::from_fn(|k| f(ray(k)).x),
+                    L::from_fn(|k| f(ray(k)).y),
+                    L::from_fn(|k| f(ray(k)).z),
+                )
+            };
+            LanePacket {
+                origin: v3(&|r| r.origin),
+                dir: v3(&|r| r.dir),
+                active: *active,
+            }
         })
         .collect()
 }
