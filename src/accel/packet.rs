@@ -840,12 +840,16 @@ impl Bvh4 {
          -> u32 {
             let mut found = 0;
             for i in range {
+                let (t, bits) =
+                    p.test_prim(scene, kind, i, t_min, t_max, lanes & !found, tris.get(kind));
+                if bits == 0 {
+                    continue;
+                }
+                // The object is looked up only for a primitive some lane hits.
                 let (id, obj) = ids(scene, kind, i);
                 if obj == object {
                     continue;
                 }
-                let (t, bits) =
-                    p.test_prim(scene, kind, i, t_min, t_max, lanes & !found, tris.get(kind));
                 for k in set_lanes(bits) {
                     if t[k] < t_light[k] || id < id_light[k] {
                         found |= 1 << k;
