@@ -58,8 +58,6 @@ pub trait Lane:
     /// Lane `i` is `f(i)`.
     fn from_fn(f: impl FnMut(usize) -> f32) -> Self;
     fn lane(self, i: usize) -> f32;
-    /// `pow::powf_n` over the lanes: `max(self, 0)^s`, the same bits at every width.
-    fn powf(self, s: Self) -> Self;
     /// `m ? a : b`, lane by lane.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
     fn lt(self, o: Self) -> Self::Mask;
@@ -157,10 +155,6 @@ impl Lane for f32 {
     #[inline(always)]
     fn lane(self, _: usize) -> f32 {
         self
-    }
-    #[inline(always)]
-    fn powf(self, s: Self) -> Self {
-        crate::pow::powf_n([self], [s])[0]
     }
     #[inline(always)]
     fn select(m: bool, a: Self, b: Self) -> Self {
@@ -272,10 +266,6 @@ impl Lane for Vec4 {
     #[inline(always)]
     fn lane(self, i: usize) -> f32 {
         self[i]
-    }
-    #[inline(always)]
-    fn powf(self, s: Self) -> Self {
-        Vec4::from_array(crate::pow::powf_n(self.to_array(), s.to_array()))
     }
     #[inline(always)]
     fn select(m: BVec4A, a: Self, b: Self) -> Self {
@@ -418,10 +408,6 @@ impl Lane for f32x8 {
     #[inline(always)]
     fn lane(self, i: usize) -> f32 {
         self.as_array_ref()[i]
-    }
-    #[inline(always)]
-    fn powf(self, s: Self) -> Self {
-        f32x8::new(crate::pow::powf_n(self.to_array(), s.to_array()))
     }
     #[inline(always)]
     fn select(m: Mask8, a: Self, b: Self) -> Self {

@@ -15,7 +15,6 @@ pub mod lanes;
 pub mod material;
 pub mod metrics;
 pub mod output;
-pub mod pow;
 pub mod render;
 pub mod rng;
 pub mod scene;

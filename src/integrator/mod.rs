@@ -519,7 +519,8 @@ pub fn adds_nothing(normal: Vec3, l: Vec3, view: Vec3, shininess: f32) -> bool {
 }
 
 /// `adds_nothing` over lanes (the scalar one is this kernel at `f32`): the lanes of
-/// `lanes` whose sample adds nothing (`Lane::powf`, the power `phong_lanes` takes).
+/// `lanes` whose sample adds nothing. `powf` is the same scalar call per lane, made only
+/// for lanes with N·L ≤ 0.
 #[inline(always)]
 pub fn adds_nothing_lanes<L: Lane>(
     normal: V3<L>,
@@ -535,8 +536,13 @@ pub fn adds_nothing_lanes<L: Lane>(
     }
     let r = normalize_or_zero(normal.scale(L::splat(2.0) * n_dot_l) - l);
     let r_dot_v = r.dot(view);
-    let spec = r_dot_v.powf(L::from_fn(|k| shininess[k]));
-    spec.eq(L::splat(0.0)).bits() & unlit
+    let mut nothing = 0;
+    for k in set_lanes(unlit) {
+        if r_dot_v.lane(k).max(0.0).powf(shininess[k]) == 0.0 {
+            nothing |= 1 << k;
+        }
+    }
+    nothing
 }
 
 /// The unit normals facing the rays along `dir` and the lanes that arrived on the side
@@ -655,8 +661,8 @@ pub fn normalize_or_zero<L: Lane>(v: V3<L>) -> V3<L> {
 /// Phong at the lanes' surfaces (`seed-scenes.md` §3): ambient, plus per light the mean
 /// over its samples of the diffuse and specular terms of the samples that see it.
 /// `sample(light, k)` gives the lanes lit by sample `k` (a bit mask) and the unit
-/// directions to it. The scalar tracer runs it on one lane; the specular power is
-/// `Lane::powf` (`pow::powf_n`), the same bits at every width. (N·L is clamped by `Lane::max`, which may turn a −0 into +0: the
+/// directions to it. The scalar tracer runs it on one lane; `powf` is the same scalar
+/// call on every lane. (N·L is clamped by `Lane::max`, which may turn a −0 into +0: the
 /// sums it feeds start at +0, so the bits cannot change.)
 #[inline]
 pub fn phong_lanes<L: Lane>(
@@ -668,7 +674,6 @@ pub fn phong_lanes<L: Lane>(
 ) -> V3<L> {
     let zero = V3::splat(Vec3::ZERO);
     let (mut diffuse, mut specular) = (zero, zero);
-    let shininess = L::from_fn(|i| m.shininess[i]);
     for (li, light) in scene.lights.iter().enumerate() {
         let n = light.samples();
         let radiance = V3::<L>::splat(light.radiance);
@@ -685,7 +690,13 @@ pub fn phong_lanes<L: Lane>(
             // The seed's specular term is not gated by N·L > 0.
             let r = normalize_or_zero(normal.scale(L::splat(2.0) * n_dot_l) - l);
             let r_dot_v = r.dot(view);
-            let spec = L::select(mask, r_dot_v.powf(shininess), L::splat(0.0));
+            let spec = L::from_fn(|i| {
+                if lit >> i & 1 != 0 {
+                    r_dot_v.lane(i).max(0.0).powf(m.shininess[i])
+                } else {
+                    0.0
+                }
+            });
             light_specular =
                 V3::select(mask, light_specular + radiance.scale(spec), light_specular);
         }
