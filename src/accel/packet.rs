@@ -22,7 +22,7 @@ use crate::geometry::triangle::{
 };
 use crate::geometry::{beats, keep_closest, Aabb, Hit, PrimKind, Ray};
 use crate::lanes::{set_lanes, Lane, Mask, V3};
-use crate::scene::Scene;
+use crate::scene::{LightShape, Scene};
 use std::cell::OnceCell;
 use std::mem::MaybeUninit;
 
@@ -825,6 +825,17 @@ impl Bvh4 {
         let mut remaining = lanes & p.active;
         let mut occluded = 0u32;
         let tris = LazyTriangles::new(p, scene);
+        // The kind of the object's primitives when it is a light (an object is one
+        // sphere, quads or triangles); `None`: any kind may be the object's.
+        let object_kind = scene
+            .lights
+            .iter()
+            .find(|l| l.object == object)
+            .map(|l| match l.shape {
+                LightShape::Point { .. } => PrimKind::Sphere,
+                LightShape::Quads(_) => PrimKind::Quad,
+                LightShape::Triangles(_) => PrimKind::Triangle,
+            });
         // Lanes not tested get t_max = −∞ (no box or primitive test passes).
         let mut t_max: [f32; MAX_WIDTH] = std::array::from_fn(|k| {
             if remaining >> k & 1 != 0 {
@@ -839,13 +850,19 @@ impl Bvh4 {
                     t_max: &[f32; MAX_WIDTH]|
          -> u32 {
             let mut found = 0;
+            // Primitives of the object's own kind are skipped before their test (the
+            // light's quads are dear to test); the others cannot be the object's, and
+            // their ids are looked up only when some lane hits them.
+            let check_first = object_kind.is_none_or(|k| k == kind);
             for i in range {
+                if check_first && ids(scene, kind, i).1 == object {
+                    continue;
+                }
                 let (t, bits) =
                     p.test_prim(scene, kind, i, t_min, t_max, lanes & !found, tris.get(kind));
                 if bits == 0 {
                     continue;
                 }
-                // The object is looked up only for a primitive some lane hits.
                 let (id, obj) = ids(scene, kind, i);
                 if obj == object {
                     continue;
