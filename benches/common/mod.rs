@@ -3,7 +3,7 @@
 //! hits to the first light; and the packets' rays in lanes (`in_lanes`), the form the
 //! renderer makes them in and the form Embree's `rtcIntersect8` is handed (SoA).
 
-use raytracer::accel::packet::MAX_WIDTH;
+use raytracer::accel::packet::{RayPacket, MAX_WIDTH};
 use raytracer::accel::Accel;
 use raytracer::geometry::spawn::spawn_ray;
 use raytracer::geometry::Ray;
@@ -98,25 +98,18 @@ pub struct LanePacket<L> {
     pub active: u32,
 }
 
-/// `packets` transposed into lanes once, before any timing: the renderer never builds a
-/// packet from an array of rays (it makes rays in lanes and calls
-/// `RayPacket::from_lanes`), and Embree's packet calls take their rays as SoA arrays.
+/// `packets` transposed into lanes once, before any timing (by `RayPacket::new`, whose
+/// lanes these are): the renderer never builds a packet from an array of rays (it makes
+/// rays in lanes and calls `RayPacket::from_lanes`), and Embree's packet calls take
+/// their rays as SoA arrays.
 pub fn in_lanes<L: Lane>(packets: &[Packet]) -> Vec<LanePacket<L>> {
     packets
         .iter()
         .map(|(rays, active)| {
-            let first = active.trailing_zeros() as usize;
-            let ray = |k: usize| &rays[if active >> k & 1 != 0 { k } else { first }];
-            let v3 = |f: &dyn Fn(&Ray) -> glam::Vec3| {
-                V3::new(
-                    L::from_fn(|k| f(ray(k)).x),
-                    L::from_fn(|k| f(ray(k)).y),
-                    L::from_fn(|k| f(ray(k)).z),
-                )
-            };
+            let p = RayPacket::<L>::new(rays, *active);
             LanePacket {
-                origin: v3(&|r| r.origin),
-                dir: v3(&|r| r.dir),
+                origin: p.origin(),
+                dir: p.dir(),
                 active: *active,
             }
         })
