@@ -60,8 +60,6 @@ fn lanes_by_class(classes: [u8; MAX_WIDTH]) -> [u32; CLASSES] {
 #[derive(Clone, Debug)]
 pub(crate) struct ShadeTables {
     class: Vec<u8>,
-    /// The object's material index (0 for entry 0).
-    material: Vec<u32>,
     /// PhongMirror's Schlick index (0 elsewhere).
     mirror_index: Vec<f32>,
     /// Phong parameters by material index (default for the others).
@@ -73,7 +71,6 @@ impl ShadeTables {
         let objects = scene.object_material.len();
         let mut t = ShadeTables {
             class: vec![MISS as u8; objects + 1],
-            material: vec![0; objects + 1],
             mirror_index: vec![0.0; objects + 1],
             phong: vec![Phong::default(); scene.materials.len().max(1)],
         };
@@ -92,7 +89,6 @@ impl ShadeTables {
                 }
             };
             t.class[o + 1] = class as u8;
-            t.material[o + 1] = mi;
             t.mirror_index[o + 1] = index;
         }
         t
@@ -261,7 +257,8 @@ impl Tracer<'_> {
             } else {
                 first
             };
-            &t.phong[t.material[j] as usize]
+            // j ≥ 1: Phong lanes have a hit.
+            &t.phong[scene.object_material[j - 1] as usize]
         });
         let view = -dir;
         // Phong over the lanes, the same kernel as the scalar tracer's. As there, each
