@@ -714,19 +714,14 @@ impl Bvh4 {
         };
         let fallback = RayPacket::<L>::fallback();
         let mut stack = [MaybeUninit::<(u32, u32, f32)>::uninit(); STACK_SIZE];
-        stack[0].write((root, p.active, t_min));
-        let mut sp = 1;
-        while sp > 0 {
-            sp -= 1;
-            // SAFETY: slot `sp` < the highest `sp` reached, all of which were written.
-            let (code, lanes, enter) = unsafe { stack[sp].assume_init() };
-            // Lanes whose closest hit is already nearer than the box's entry (the
-            // smallest over the lanes that entered it) leave the subtree.
-            let lanes = st.t_max_lanes.ge(L::splat(enter)).bits() & lanes;
-            if lanes == 0 {
-                continue;
-            }
-            if code & LEAF != 0 {
+        let mut sp = 0;
+        // The node being visited and its lanes. The nearest child a node's lanes enter
+        // is visited next without a trip through the stack (most nodes of a coherent
+        // packet have one); the others are pushed, farthest first.
+        let mut code = root;
+        let mut lanes = st.t_max_lanes.ge(L::splat(t_min)).bits() & p.active;
+        loop {
+            if lanes != 0 && code & LEAF != 0 {
                 let (kind, start, count) = decode_leaf(code);
                 stats.prims += (count * lanes.count_ones()) as u64;
                 st.leaf(
@@ -738,71 +733,92 @@ impl Bvh4 {
                     lanes,
                     tris.get(kind),
                 );
-                continue;
-            }
-            stats.nodes += 1;
-            stats.packet_nodes += 1;
-            stats.packet_lanes += lanes.count_ones() as u64;
-            let node = &self.nodes[code as usize];
-            let t_max = L::select(
-                L::Mask::from_bits(lanes),
-                st.t_max_lanes,
-                L::splat(f32::NEG_INFINITY),
-            );
-            // All four boxes first, with no branch between them (an empty slot's box
-            // is inverted and never hit): which children a packet enters is a coin
-            // toss for the branch predictor, so it is asked once, as a 4-bit mask.
-            let t_min_l = L::splat(t_min);
-            let tested: [(L, u32); 4] = std::array::from_fn(|c| {
-                let (entry, bits) = p.test_child(node, c, t_min_l, t_max);
-                (entry, bits & lanes)
-            });
-            let entered = tested
-                .iter()
-                .enumerate()
-                .fold(0u32, |m, (c, t)| m | ((t.1 != 0) as u32) << c);
-            let mut hits = [(0u32, 0u32, 0f32); 4];
-            let mut finished_alone = false;
-            let mut n = 0;
-            for c in set_lanes(entered) {
-                let (entry, bits) = tested[c];
-                let child = node.child[c];
-                debug_assert!(child != EMPTY);
-                if bits.count_ones() <= fallback {
-                    for k in set_lanes(bits) {
-                        let (pray, bray) = p.scalar(k);
-                        self.closest_hit_from(
-                            scene,
-                            child,
-                            &pray,
-                            &bray,
-                            t_min,
-                            &mut st.t_max[k],
-                            &mut st.best[k],
-                            stats,
-                        );
+            } else if lanes != 0 {
+                stats.nodes += 1;
+                stats.packet_nodes += 1;
+                stats.packet_lanes += lanes.count_ones() as u64;
+                let node = &self.nodes[code as usize];
+                let t_max = L::select(
+                    L::Mask::from_bits(lanes),
+                    st.t_max_lanes,
+                    L::splat(f32::NEG_INFINITY),
+                );
+                // All four boxes first, with no branch between them (an empty slot's box
+                // is inverted and never hit): which children a packet enters is a coin
+                // toss for the branch predictor, so it is asked once, as a 4-bit mask.
+                let t_min_l = L::splat(t_min);
+                let tested: [(L, u32); 4] = std::array::from_fn(|c| {
+                    let (entry, bits) = p.test_child(node, c, t_min_l, t_max);
+                    (entry, bits & lanes)
+                });
+                let entered = tested
+                    .iter()
+                    .enumerate()
+                    .fold(0u32, |m, (c, t)| m | ((t.1 != 0) as u32) << c);
+                let mut hits = [(0u32, 0u32, 0f32); 4];
+                let mut finished_alone = false;
+                let mut n = 0;
+                for c in set_lanes(entered) {
+                    let (entry, bits) = tested[c];
+                    let child = node.child[c];
+                    debug_assert!(child != EMPTY);
+                    if bits.count_ones() <= fallback {
+                        for k in set_lanes(bits) {
+                            let (pray, bray) = p.scalar(k);
+                            self.closest_hit_from(
+                                scene,
+                                child,
+                                &pray,
+                                &bray,
+                                t_min,
+                                &mut st.t_max[k],
+                                &mut st.best[k],
+                                stats,
+                            );
+                        }
+                        finished_alone = true;
+                        continue;
                     }
-                    finished_alone = true;
+                    let d = L::select(L::Mask::from_bits(bits), entry, L::splat(f32::INFINITY))
+                        .reduce_min();
+                    // Insert sorted, farthest first, so the nearest is last.
+                    let mut j = n;
+                    while j > 0 && hits[j - 1].2 < d {
+                        hits[j] = hits[j - 1];
+                        j -= 1;
+                    }
+                    hits[j] = (child, bits, d);
+                    n += 1;
+                }
+                if finished_alone {
+                    st.sync();
+                }
+                if n > 0 {
+                    for h in &hits[..n - 1] {
+                        stack[sp].write(*h);
+                        sp += 1;
+                    }
+                    let (child, bits, d) = hits[n - 1];
+                    code = child;
+                    // The lanes' `t_max` can have changed only if some were finished alone.
+                    lanes = if finished_alone {
+                        st.t_max_lanes.ge(L::splat(d)).bits() & bits
+                    } else {
+                        bits
+                    };
                     continue;
                 }
-                let d = L::select(L::Mask::from_bits(bits), entry, L::splat(f32::INFINITY))
-                    .reduce_min();
-                // Insert sorted, farthest first, so the nearest is popped next.
-                let mut j = n;
-                while j > 0 && hits[j - 1].2 < d {
-                    hits[j] = hits[j - 1];
-                    j -= 1;
-                }
-                hits[j] = (child, bits, d);
-                n += 1;
             }
-            if finished_alone {
-                st.sync();
+            // Pop the next subtree. Lanes whose closest hit is already nearer than the
+            // box's entry (the smallest over the lanes that entered it) leave it.
+            if sp == 0 {
+                break;
             }
-            for h in &hits[..n] {
-                stack[sp].write(*h);
-                sp += 1;
-            }
+            sp -= 1;
+            // SAFETY: slot `sp` < the highest `sp` reached, all of which were written.
+            let (next, next_lanes, enter) = unsafe { stack[sp].assume_init() };
+            code = next;
+            lanes = st.t_max_lanes.ge(L::splat(enter)).bits() & next_lanes;
         }
         st.best
     }
