@@ -79,9 +79,14 @@ fn rays(bounds: Aabb, n: usize, seed: u64) -> Vec<Ray> {
 }
 
 fn assert_same_closest_hits(scene: &Scene, n: usize, seed: u64) {
+    assert_same_closest_hits_in(scene, scene.bounds, n, seed)
+}
+
+/// `assert_same_closest_hits` with the rays made around `bounds`.
+fn assert_same_closest_hits_in(scene: &Scene, bounds: Aabb, n: usize, seed: u64) {
     let pair = Pair::new(scene);
     let mut hits = 0;
-    for (i, ray) in rays(scene.bounds, n, seed).iter().enumerate() {
+    for (i, ray) in rays(bounds, n, seed).iter().enumerate() {
         let (l, b) = pair.closest(ray, f32::INFINITY);
         assert_eq!(key(l), key(b), "ray {i}: {ray:?}");
         hits += l.is_some() as usize;
@@ -150,6 +155,11 @@ fn subdivided_bunny_rays_match_brute_force() {
 
 /// More than `LINEAR_LIMIT` of every kind, so all three kinds are in the tree together.
 fn mixed_scene() -> Scene {
+    with_icosphere(&mixed_scene_text())
+}
+
+/// The mixed scene's file, whose mesh is `ico.obj` (`with_icosphere`).
+fn mixed_scene_text() -> String {
     let mut rng = Rng(9);
     let mut text = String::from(
         "[materials.m]\ntype = \"phong\"\nalbedo = [0.5, 0.5, 0.5]\nshininess = 10\n\
@@ -208,8 +218,12 @@ fn mixed_scene() -> Scene {
         );
     }
     text += "[[objects]]\ntype = \"mesh\"\npath = \"ico.obj\"\nmaterial = \"l\"\n";
+    text
+}
+
+fn with_icosphere(text: &str) -> Scene {
     let ico = raytracer::generate::icosphere(2, Vec3::new(1.0, 2.0, -1.0), 1.5);
-    scene_with_files(&text, &[("ico.obj", obj_text(&ico))])
+    scene_with_files(text, &[("ico.obj", obj_text(&ico))])
 }
 
 #[test]
@@ -219,23 +233,67 @@ fn mixed_scene_100k_rays_match_brute_force() {
     let Accel::Bvh(b) = &pair.bvh.1 else {
         unreachable!()
     };
-    assert_eq!(
-        b.linear_kinds,
-        [false, false, false],
-        "every kind must be in the tree"
+    assert!(
+        b.linear.iter().all(|r| r.is_empty()),
+        "every primitive must be in the tree"
     );
     assert_same_closest_hits(&scene, 100_000, 4);
 }
 
+/// The mixed scene with `extra` objects added.
+fn mixed_scene_with(extra: &[&str]) -> Scene {
+    let mut text = mixed_scene_text();
+    for object in extra {
+        text += &format!("[[objects]]\n{object}\nmaterial = \"m\"\n");
+    }
+    let scene = with_icosphere(&text);
+    assert_eq!(
+        scene.primitive_count(),
+        mixed_scene().primitive_count() + extra.len()
+    );
+    scene
+}
+
+/// The mixed scene on a huge ground: a sphere of radius 1000, or a quad and a triangle
+/// 1000 units wide. Each has more than half the surface area of all the primitives of the
+/// tree together, so it is tested beside the tree while the rest of its kind is in it.
+#[test]
+fn huge_primitives_beside_the_tree_match_brute_force() {
+    let sphere = "type = \"sphere\"\ncenter = [0, -1006, 0]\nradius = 1000";
+    let quad = "type = \"quad\"\ncorner = [-500, -6.5, -500]\nu = [1000, 0, 0]\nv = [0, 0, 1000]";
+    let triangle =
+        "type = \"triangle\"\na = [-600, -7, -600]\nb = [600, -7, -600]\nc = [0, -7, 600]";
+    for (extra, beside) in [
+        (&[sphere][..], [1, 0, 0]),
+        (&[quad, triangle][..], [0, 1, 1]),
+    ] {
+        let scene = mixed_scene_with(extra);
+        let pair = Pair::new(&scene);
+        let Accel::Bvh(b) = &pair.bvh.1 else {
+            unreachable!()
+        };
+        assert_eq!(b.linear.clone().map(|r| r.len()), beside);
+        // Rays around the mixed scene's own objects, down to the ground.
+        let around = Aabb::new(Vec3::new(-6.0, -8.0, -6.0), Vec3::new(6.0, 6.0, 6.0));
+        assert_same_closest_hits_in(&scene, around, 40_000, 6);
+        assert_shadows_agree(&scene, 20_000);
+    }
+}
+
 #[test]
 fn shadow_visibility_and_any_hit_agree_with_closest_hit() {
-    let scene = mixed_scene();
+    assert_shadows_agree(&mixed_scene(), 50_000);
+}
+
+/// Shadow rays from around the scene to its lights: visibility is the same with the BVH
+/// and the scan, and any-hit before t_max agrees with a closest hit before it.
+fn assert_shadows_agree(scene: &Scene, n: usize) {
     assert!(scene.lights.len() > 5);
-    let pair = Pair::new(&scene);
+    let pair = Pair::new(scene);
     let mut rng = Rng(5);
     let mut s = TraversalStats::default();
     let (mut visible, mut blocked) = (0, 0);
-    for i in 0..50_000 {
+    for i in 0..n {
         let light = &scene.lights[i % scene.lights.len()];
         let o = Vec3::new(
             rng.range(-6.0, 6.0),

@@ -9,7 +9,7 @@ use super::build::{self, BuildTree, NodeId, PrimRef};
 use super::linear::{self, PrimRay};
 use super::TraversalStats;
 use crate::geometry::spawn::gamma;
-use crate::geometry::sphere::{sphere_distance, SphereRay};
+use crate::geometry::sphere::{sphere_distance, SpherePool, SphereRay};
 use crate::geometry::triangle::{Columns, WatertightRay};
 use crate::geometry::{beats, Aabb, Hit, PrimKind, Ray};
 use crate::lanes::Lane;
@@ -20,6 +20,7 @@ use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 use std::mem::MaybeUninit;
 use std::ops::Range;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// A 4-wide node: child boxes SoA, then the four child codes. 128 bytes, two cache lines.
 #[repr(C, align(64))]
@@ -141,6 +142,14 @@ pub fn slab<L: Lane>(
 /// scene's ground sphere) would otherwise cover the whole tree.
 pub const LINEAR_LIMIT: usize = 16;
 
+/// A primitive of a kind in the tree whose box has at least this fraction of the surface
+/// area of the scene's bounds (a ground sphere of radius 1000 under small spheres, a
+/// ground quad under a mesh) is tested beside the tree, like a kind of at most
+/// `LINEAR_LIMIT`: in the tree its box would hold most others, so most rays entering the
+/// tree would test it anyway, and the nodes above it would be as large as the scene. At
+/// most `LINEAR_LIMIT` of them, and never all of the tree's primitives.
+pub const HUGE_FRACTION: f32 = 0.5;
+
 /// Deepest stack a traversal can need: three entries per level of a 4-wide tree whose
 /// depth is bounded by the binary build's.
 const STACK_SIZE: usize = 256;
@@ -150,8 +159,10 @@ pub struct Bvh4 {
     pub nodes: Vec<Node4>,
     /// Code of the root (an inner node index or a leaf), `None` when no kind is in the tree.
     pub root: Option<u32>,
-    /// Kinds tested in a loop beside the tree (index: sphere, quad, triangle).
-    pub linear_kinds: [bool; 3],
+    /// The primitives of each kind tested in a loop beside the tree (index: sphere,
+    /// quad, triangle): the whole pool of a kind of at most `LINEAR_LIMIT`, the pool's
+    /// end for the huge primitives of a kind in the tree (`HUGE_FRACTION`), else empty.
+    pub linear: [Range<usize>; 3],
     pub depth: u32,
     pub leaves: u32,
     /// The sphere pool when it is beside the tree, four spheres a `Vec4` (the last group
@@ -468,7 +479,6 @@ impl Bvh4 {
             scene.triangles.len(),
         ];
         let in_tree = counts.map(|n| n > LINEAR_LIMIT && n <= MAX_POOL_FOR_BVH);
-        let linear_kinds = in_tree.map(|t| !t);
         let mut refs = Vec::with_capacity(
             counts
                 .iter()
@@ -482,6 +492,9 @@ impl Bvh4 {
         // thread count.
         let s = &*scene;
         let kinds = [PrimKind::Sphere, PrimKind::Quad, PrimKind::Triangle];
+        // Counted on the way (a separate pass cost 5% of the 1.27M-triangle build).
+        let huge_area = HUGE_FRACTION * s.bounds.surface_area();
+        let huge_count = AtomicUsize::new(0);
         for k in (0..3).filter(|&k| in_tree[k]) {
             refs.par_extend((0..counts[k]).into_par_iter().map(|i| {
                 let bounds = match kinds[k] {
@@ -489,9 +502,22 @@ impl Bvh4 {
                     PrimKind::Quad => s.quads.bounds(i),
                     PrimKind::Triangle => s.triangles.bounds(i),
                 };
+                if bounds.surface_area() >= huge_area {
+                    huge_count.fetch_add(1, Ordering::Relaxed);
+                }
                 PrimRef::new(bounds, kinds[k], i as u32)
             }));
         }
+        let huge_count = huge_count.into_inner();
+        let huge = if huge_count > 0 && huge_count <= LINEAR_LIMIT && huge_count < refs.len() {
+            let (huge, rest) = refs
+                .iter()
+                .partition(|r| r.bounds().surface_area() >= huge_area);
+            refs = rest;
+            huge
+        } else {
+            Vec::new()
+        };
         let tree = build::build(&mut refs);
 
         // Reorder the pools in reference order, and note each reference's new position
@@ -508,29 +534,28 @@ impl Bvh4 {
             order[k].push(r.index());
         }
         let position = several_kinds.then_some(&position[..]);
+        // The huge primitives go to the end of their pools, after every leaf's range.
+        let linear = [0, 1, 2].map(|k| {
+            if !in_tree[k] {
+                return 0..counts[k];
+            }
+            let start = order[k].len();
+            order[k].extend(
+                huge.iter()
+                    .filter(|r| kind_slot(r.kind()) == k)
+                    .map(|r| r.index()),
+            );
+            start..counts[k]
+        });
 
         let mut bvh = Bvh4 {
             nodes: Vec::new(),
             root: None,
-            linear_kinds,
+            linear,
             depth: 0,
             leaves: 0,
             linear_spheres: Vec::new(),
         };
-        if linear_kinds[0] {
-            let sp = &scene.spheres;
-            bvh.linear_spheres = (0..sp.len())
-                .step_by(4)
-                .map(|start| {
-                    let lane = |v: &[f32], k: usize| v.get(start + k).copied().unwrap_or(0.0);
-                    let v4 = |v: &[f32]| Vec4::from_array([0, 1, 2, 3].map(|k| lane(v, k)));
-                    SphereLanes {
-                        center: V3::new(v4(&sp.cx), v4(&sp.cy), v4(&sp.cz)),
-                        radius: v4(&sp.radius),
-                    }
-                })
-                .collect();
-        }
         // The collapse reads only the tree and `position`, so it runs beside the pool
         // reordering: on the 1.27M-triangle bunny each takes about 60 ms (mostly page
         // faults on their new arrays), a sixth of the whole build.
@@ -555,6 +580,7 @@ impl Bvh4 {
                 }
             },
         );
+        bvh.linear_spheres = pack_spheres(&scene.spheres, bvh.linear[0].clone());
         bvh
     }
 
@@ -645,8 +671,9 @@ impl Bvh4 {
         c: &mut Closest,
         stats: &mut TraversalStats,
     ) {
-        let n = scene.spheres.len();
-        if self.linear_kinds[0] && n > 0 {
+        let spheres = &self.linear[0];
+        let n = spheres.len();
+        if n > 0 {
             stats.prims += n as u64;
             if self.linear_spheres.len() * 4 >= n {
                 // `SpherePool::intersect4` on the pre-packed lanes.
@@ -663,24 +690,23 @@ impl Bvh4 {
                         Vec4::splat(t_min),
                         Vec4::splat(c.t_max),
                     );
-                    let start = 4 * g;
+                    let first = 4 * g;
                     let t = t.to_array();
-                    let mut mask = hit.bitmask() & ((1u32 << (n - start).min(4)) - 1);
+                    let mut mask = hit.bitmask() & ((1u32 << (n - first).min(4)) - 1);
                     while mask != 0 {
                         let k = mask.trailing_zeros() as usize;
                         mask &= mask - 1;
                         if t[k] <= c.t_max {
-                            c.offer(t[k], s.id[start + k], PrimKind::Sphere, start + k);
+                            let i = spheres.start + first + k;
+                            c.offer(t[k], s.id[i], PrimKind::Sphere, i);
                         }
                     }
                 }
             } else {
-                c.range(scene, PrimKind::Sphere, 0..n, consts, t_min);
+                c.range(scene, PrimKind::Sphere, spheres.clone(), consts, t_min);
             }
         }
-        if self.linear_kinds[1] && !scene.quads.is_empty()
-            || self.linear_kinds[2] && !scene.triangles.is_empty()
-        {
+        if !self.linear[1].is_empty() || !self.linear[2].is_empty() {
             self.linear_quads_triangles(scene, consts, t_min, c, stats);
         }
     }
@@ -695,10 +721,10 @@ impl Bvh4 {
         stats: &mut TraversalStats,
     ) {
         for (k, kind) in [(1, PrimKind::Quad), (2, PrimKind::Triangle)] {
-            let n = pool_len(scene, kind);
-            if self.linear_kinds[k] && n > 0 {
-                stats.prims += n as u64;
-                c.range(scene, kind, 0..n, consts, t_min);
+            let range = self.linear[k].clone();
+            if !range.is_empty() {
+                stats.prims += range.len() as u64;
+                c.range(scene, kind, range, consts, t_min);
             }
         }
     }
@@ -867,11 +893,12 @@ impl Bvh4 {
             .into_iter()
             .enumerate()
         {
-            if self.linear_kinds[k] {
-                let n = pool_len(scene, kind);
-                stats.prims += n as u64;
-                if linear::occludes_range(scene, kind, 0..n, pray, t_min, t_light, id_light, object)
-                {
+            let range = self.linear[k].clone();
+            if !range.is_empty() {
+                stats.prims += range.len() as u64;
+                if linear::occludes_range(
+                    scene, kind, range, pray, t_min, t_light, id_light, object,
+                ) {
                     return true;
                 }
             }
@@ -947,19 +974,35 @@ fn sort4(mut k: [u32; 4]) -> [u32; 4] {
     k
 }
 
+/// The spheres `range` four a `Vec4`, the last group padded with radius-0 spheres (which
+/// `linear_kinds` masks off).
+fn pack_spheres(sp: &SpherePool, range: Range<usize>) -> Vec<SphereLanes> {
+    range
+        .clone()
+        .step_by(4)
+        .map(|start| {
+            let lane = |v: &[f32], k: usize| {
+                let i = start + k;
+                if i < range.end {
+                    v[i]
+                } else {
+                    0.0
+                }
+            };
+            let v4 = |v: &[f32]| Vec4::from_array([0, 1, 2, 3].map(|k| lane(v, k)));
+            SphereLanes {
+                center: V3::new(v4(&sp.cx), v4(&sp.cy), v4(&sp.cz)),
+                radius: v4(&sp.radius),
+            }
+        })
+        .collect()
+}
+
 fn kind_slot(kind: PrimKind) -> usize {
     match kind {
         PrimKind::Sphere => 0,
         PrimKind::Quad => 1,
         PrimKind::Triangle => 2,
-    }
-}
-
-pub(crate) fn pool_len(scene: &Scene, kind: PrimKind) -> usize {
-    match kind {
-        PrimKind::Sphere => scene.spheres.len(),
-        PrimKind::Quad => scene.quads.len(),
-        PrimKind::Triangle => scene.triangles.len(),
     }
 }
 

@@ -80,8 +80,12 @@ impl Accel {
                 ];
                 let list = |in_tree: bool| {
                     let parts: Vec<String> = (0..3)
-                        .filter(|&k| pools[k] > 0 && b.linear_kinds[k] != in_tree)
-                        .map(|k| format!("{} {}", pools[k], names[k]))
+                        .map(|k| {
+                            let beside = b.linear[k].len();
+                            (k, if in_tree { pools[k] - beside } else { beside })
+                        })
+                        .filter(|&(_, n)| n > 0)
+                        .map(|(k, n)| format!("{n} {}", names[k]))
                         .collect();
                     if parts.is_empty() {
                         "none".to_string()

@@ -9,8 +9,7 @@
 //! (`Packet::fallback`) is finished one ray at a time by the scalar traversal.
 
 use super::bvh4::{
-    decode_leaf, plane_rows, pool_len, slab, BoxRay, Bvh4, Node4, EMPTY, FAR_SCALE, LEAF,
-    NEAR_SCALE,
+    decode_leaf, plane_rows, slab, BoxRay, Bvh4, Node4, EMPTY, FAR_SCALE, LEAF, NEAR_SCALE,
 };
 use super::linear::PrimRay;
 use super::TraversalStats;
@@ -702,11 +701,12 @@ impl Bvh4 {
             best: [None; MAX_WIDTH],
         };
         for (k, kind) in KINDS.into_iter().enumerate() {
-            let n = pool_len(scene, kind);
-            // (`n > 0`: an empty pool must not make the watertight lanes, `tris.get`.)
-            if self.linear_kinds[k] && n > 0 {
-                stats.prims += (n * p.active.count_ones() as usize) as u64;
-                st.leaf(scene, p, kind, 0..n, t_min, p.active, tris.get(kind));
+            let range = self.linear[k].clone();
+            // (Not for an empty range: an empty pool must not make the watertight
+            // lanes, `tris.get`.)
+            if !range.is_empty() {
+                stats.prims += (range.len() * p.active.count_ones() as usize) as u64;
+                st.leaf(scene, p, kind, range, t_min, p.active, tris.get(kind));
             }
         }
         let Some(root) = self.root else {
@@ -895,10 +895,10 @@ impl Bvh4 {
             found
         };
         for (k, kind) in KINDS.into_iter().enumerate() {
-            if self.linear_kinds[k] && remaining != 0 {
-                let n = pool_len(scene, kind);
-                stats.prims += (n * remaining.count_ones() as usize) as u64;
-                let found = leaf(kind, 0..n, remaining, &t_max);
+            let range = self.linear[k].clone();
+            if !range.is_empty() && remaining != 0 {
+                stats.prims += (range.len() * remaining.count_ones() as usize) as u64;
+                let found = leaf(kind, range, remaining, &t_max);
                 occluded |= found;
                 remaining &= !found;
             }
