@@ -418,7 +418,7 @@ impl Closest {
 
     /// `linear::intersect_range` on this state: spheres and triangles four at a time,
     /// quads one at a time. The triangle test's constants are made only for quads and
-    /// triangles: a sphere leaf needs none of them (two divisions and the axis choice, 12%
+    /// triangles: a sphere leaf needs none of them (two divisions and the axis choice, 11%
     /// of the instructions of a scene of 486 spheres in the tree, `trace_probe`).
     #[inline(never)]
     fn range(
