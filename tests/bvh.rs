@@ -280,6 +280,25 @@ fn huge_primitives_beside_the_tree_match_brute_force() {
     }
 }
 
+/// A scene of the "one weekend" kind, 484 small spheres on a ground sphere of radius
+/// 1000 (tests/data/many-spheres.toml): the ground is tested beside the tree, every
+/// other sphere is in it, and the image is the scan's, bit for bit.
+#[test]
+fn many_spheres_on_a_huge_ground_sphere() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/many-spheres.toml");
+    let scene = builtin(path, 48, 2);
+    assert_eq!(scene.spheres.len(), 486);
+    let mut tree_scene = scene.clone();
+    let Accel::Bvh(b) = Accel::build(&mut tree_scene, AccelKind::Bvh) else {
+        unreachable!()
+    };
+    assert_eq!(b.linear.clone().map(|r| r.len()), [1, 0, 0]);
+    assert_eq!(tree_scene.spheres.radius[b.linear[0].start], 1000.0);
+    let l = render_with(&scene, AccelKind::Linear, 2, 3);
+    let t = render_with(&scene, AccelKind::Bvh, 2, 3);
+    assert_eq!(bits(&l.film), bits(&t.film));
+}
+
 #[test]
 fn shadow_visibility_and_any_hit_agree_with_closest_hit() {
     assert_shadows_agree(&mixed_scene(), 50_000);
