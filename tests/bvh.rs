@@ -255,8 +255,8 @@ fn mixed_scene_with(extra: &[&str]) -> Scene {
 }
 
 /// The mixed scene on a huge ground: a sphere of radius 1000, or a quad and a triangle
-/// 1000 units wide. Each has more than half the surface area of all the primitives of the
-/// tree together, so it is tested beside the tree while the rest of its kind is in it.
+/// 1000 units wide. Each has more than half the surface area of the scene's bounds
+/// (`HUGE_FRACTION`), so it is tested beside the tree while the rest of its kind is in it.
 #[test]
 fn huge_primitives_beside_the_tree_match_brute_force() {
     let sphere = "type = \"sphere\"\ncenter = [0, -1006, 0]\nradius = 1000";

@@ -165,7 +165,7 @@ pub struct Bvh4 {
     pub linear: [Range<usize>; 3],
     pub depth: u32,
     pub leaves: u32,
-    /// The sphere pool when it is beside the tree, four spheres a `Vec4` (the last group
+    /// The spheres beside the tree (`linear[0]`), four a `Vec4` (the last group
     /// padded with radius-0 spheres, masked off): one load per component instead of four
     /// gathered through `load4`'s short-tail path on every ray (the bunny scene's three
     /// spheres cost ~130 instructions a ray that way, callgrind).
@@ -675,35 +675,33 @@ impl Bvh4 {
         let n = spheres.len();
         if n > 0 {
             stats.prims += n as u64;
-            if self.linear_spheres.len() * 4 >= n {
-                // `SpherePool::intersect4` on the pre-packed lanes.
-                let s = &scene.spheres;
-                let r = &consts.sphere;
-                for (g, lanes) in self.linear_spheres.iter().enumerate() {
-                    let (t, hit) = sphere_distance(
-                        lanes.center,
-                        lanes.radius,
-                        V3::splat(r.origin),
-                        V3::splat(r.dir),
-                        Vec4::splat(r.a),
-                        Vec4::splat(r.inv_a),
-                        Vec4::splat(t_min),
-                        Vec4::splat(c.t_max),
-                    );
-                    let first = 4 * g;
-                    let t = t.to_array();
-                    let mut mask = hit.bitmask() & ((1u32 << (n - first).min(4)) - 1);
-                    while mask != 0 {
-                        let k = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
-                        if t[k] <= c.t_max {
-                            let i = spheres.start + first + k;
-                            c.offer(t[k], s.id[i], PrimKind::Sphere, i);
-                        }
+            // `SpherePool::intersect4` on the pre-packed lanes (`pack_spheres` packs
+            // exactly `linear[0]`).
+            debug_assert_eq!(self.linear_spheres.len(), n.div_ceil(4));
+            let s = &scene.spheres;
+            let r = &consts.sphere;
+            for (g, lanes) in self.linear_spheres.iter().enumerate() {
+                let (t, hit) = sphere_distance(
+                    lanes.center,
+                    lanes.radius,
+                    V3::splat(r.origin),
+                    V3::splat(r.dir),
+                    Vec4::splat(r.a),
+                    Vec4::splat(r.inv_a),
+                    Vec4::splat(t_min),
+                    Vec4::splat(c.t_max),
+                );
+                let first = 4 * g;
+                let t = t.to_array();
+                let mut mask = hit.bitmask() & ((1u32 << (n - first).min(4)) - 1);
+                while mask != 0 {
+                    let k = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    if t[k] <= c.t_max {
+                        let i = spheres.start + first + k;
+                        c.offer(t[k], s.id[i], PrimKind::Sphere, i);
                     }
                 }
-            } else {
-                c.range(scene, PrimKind::Sphere, spheres.clone(), consts, t_min);
             }
         }
         if !self.linear[1].is_empty() || !self.linear[2].is_empty() {
