@@ -11,32 +11,15 @@
 //! Arguments: scene (`bunny`, `bunny-closeup`), subdivision levels (default 0), passes
 //! (default 1).
 
+#[path = "../benches/common/mod.rs"]
+mod common;
+use common::camera_rays;
 use raytracer::accel::{Accel, AccelKind, TraversalStats};
 use raytracer::geometry::Ray;
 use raytracer::integrator::T_MIN;
-use raytracer::rng::{slot, SampleKey};
 use raytracer::scene::{Overrides, Scene, SceneSource};
 use std::borrow::Cow;
 use std::time::Instant;
-
-fn camera_rays(scene: &Scene, spp: u32) -> Vec<Ray> {
-    let cam = &scene.camera;
-    let mut rays = Vec::with_capacity((cam.width * cam.height * spp) as usize);
-    for y in 0..cam.height {
-        for x in 0..cam.width {
-            for s in 0..spp {
-                let key = SampleKey::new(0, x, y, s);
-                rays.push(cam.ray(
-                    x,
-                    y,
-                    key.uniform(0, slot::JITTER_X),
-                    key.uniform(0, slot::JITTER_Y),
-                ));
-            }
-        }
-    }
-    rays
-}
 
 fn subdivided(name: &str, levels: u32) -> Scene {
     let base = SceneSource::resolve(name).unwrap();

@@ -1,7 +1,10 @@
-//! Ray sets shared by `benches/packets.rs` and `examples/packet_probe.rs`: a scene's
-//! camera rays in packets as the renderer groups them, and the shadow rays from their
-//! hits to the first light; and the packets' rays in lanes (`in_lanes`), the form the
-//! renderer makes them in and the form Embree's `rtcIntersect8` is handed (SoA).
+//! Ray sets shared by the benches and the examples: a scene's camera rays one at a time
+//! in pixel order (`benches/bvh.rs`), and in packets as the renderer groups them; the
+//! shadow rays from their hits to the first light; and the packets' rays in lanes
+//! (`in_lanes`), the form the renderer makes them in and the form Embree's
+//! `rtcIntersect8` is handed (SoA).
+//! Each bench and example that includes this module uses part of it.
+#![allow(dead_code)]
 
 use raytracer::accel::packet::{RayPacket, MAX_WIDTH};
 use raytracer::accel::Accel;
@@ -11,6 +14,27 @@ use raytracer::integrator::{footprint, Tracer};
 use raytracer::lanes::{Lane, V3};
 use raytracer::rng::{slot, SampleKey};
 use raytracer::scene::Scene;
+
+/// The camera rays of `scene` one at a time, pixel by pixel with the `spp` samples of a
+/// pixel together (`benches/bvh.rs`'s order).
+pub fn camera_rays(scene: &Scene, spp: u32) -> Vec<Ray> {
+    let cam = &scene.camera;
+    let mut rays = Vec::with_capacity((cam.width * cam.height * spp) as usize);
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            for s in 0..spp {
+                let key = SampleKey::new(0, x, y, s);
+                rays.push(cam.ray(
+                    x,
+                    y,
+                    key.uniform(0, slot::JITTER_X),
+                    key.uniform(0, slot::JITTER_Y),
+                ));
+            }
+        }
+    }
+    rays
+}
 
 /// Rays of a packet (unused lanes hold a copy) and its active mask.
 pub type Packet = ([Ray; MAX_WIDTH], u32);
