@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# Our tracer against Embree 3 on the same rays, one thread, alternating in one run.
+#
+#   benches/embree/run.sh [ROUNDS] [PASSES]     (defaults 3 and 5)
+#
+# Four cases: `bunny` and `bunny-closeup` as they are (a mesh and three spheres; Embree
+# gets the spheres as sphere points), and the same two with only the mesh and the light
+# (`bunny-mesh.toml`, `bunny-closeup-mesh.toml`, traced with the full scenes' rays; Embree
+# gets the mesh alone, so it does less work than we do). Each round runs `vs_embree`
+# (ours) then `embree_bench` (Embree) on each case; each prints every pass and the
+# median of its passes. The summary is the median, over rounds, of those medians.
+#
+# Needs a C compiler and Embree 3 (Debian: `apt-get install libembree-dev`, 3.13.5).
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+rounds=${1:-3}
+passes=${2:-5}
+work=${TMPDIR:-/tmp}/raytracer-vs-embree
+mkdir -p "$work"
+
+if ! [ -e /usr/include/embree3/rtcore.h ]; then
+    echo "Embree 3 headers not found: apt-get install libembree-dev" >&2
+    exit 2
+fi
+cc -O3 -march=native -Wall -o "$work/embree_bench" benches/embree/embree_bench.c -lembree3
+cargo build --release --example vs_embree
+ours=target/release/examples/vs_embree
+
+cases=("bunny bunny" "bunny-closeup bunny-closeup"
+    "benches/embree/bunny-mesh.toml bunny" "benches/embree/bunny-closeup-mesh.toml bunny-closeup")
+names=(bunny closeup bunny-mesh closeup-mesh)
+for i in "${!cases[@]}"; do
+    read -r scene rays <<<"${cases[$i]}"
+    "$ours" "$scene" "$work/${names[$i]}.rays" 0 "$rays" >/dev/null
+done
+
+log="$work/log.txt"
+: >"$log"
+for r in $(seq "$rounds"); do
+    echo "round $r, load: $(cut -d' ' -f1-3 /proc/loadavg)"
+    for i in "${!cases[@]}"; do
+        read -r scene rays <<<"${cases[$i]}"
+        n=${names[$i]}
+        "$ours" "$scene" "$work/$n.rays" "$passes" "$rays" | sed "s/^/$n ours /" | tee -a "$log"
+        mesh=0
+        [[ $n == *-mesh ]] && mesh=1
+        EMBREE_MESH_ONLY=$mesh "$work/embree_bench" "$work/$n.rays" "$passes" |
+            sed "s/^/$n embree /" | tee -a "$log"
+    done
+done
+
+echo
+echo "median over $rounds rounds of each run's median (Mrays/s, one thread):"
+printf '%-13s %-8s %8s %8s %7s\n' case set ours embree ratio
+awk '/median/ {
+    for (i = 1; i <= NF; i++) if ($i == "median") v = $(i + 1)
+    key = $1 " " $3; sub(/;$/, "", v)
+    vals[key, $2] = vals[key, $2] " " v
+    if (!(key in seen)) { seen[key] = 1; order[++n] = key }
+}
+function med(s,   a, k, i, j, t) {
+    k = split(s, a, " ")
+    for (i = 1; i <= k; i++) for (j = i + 1; j <= k; j++) if (a[j] + 0 < a[i] + 0) { t = a[i]; a[i] = a[j]; a[j] = t }
+    return k % 2 ? a[(k + 1) / 2] : (a[k / 2] + a[k / 2 + 1]) / 2
+}
+END {
+    for (i = 1; i <= n; i++) {
+        split(order[i], p, " ")
+        o = med(vals[order[i], "ours"]); e = med(vals[order[i], "embree"])
+        printf "%-13s %-8s %8.1f %8.1f %6.2fx\n", p[1], p[2], o, e, o / e
+    }
+}' "$log"
