@@ -9,8 +9,8 @@
 //! cargo run --release --example vs_embree -- benches/embree/bunny-mesh.toml /tmp/m.rays 5 bunny
 //! ```
 //!
-//! Arguments: the scene traced, the output file, passes (default 5, 0: write only), and
-//! the scene the rays are made in (default the same): `bunny-mesh.toml` is `bunny` with
+//! Arguments: the scene traced, the output file, passes (default 5, 0: write only), the
+//! scene the rays are made in (default the same), and the one set to time (default all): `bunny-mesh.toml` is `bunny` with
 //! only its mesh and its light, traced with `bunny`'s rays (its shadow rays start on the
 //! ground too).
 //!
@@ -112,7 +112,7 @@ fn push_f32s(out: &mut Vec<u8>, v: &[f32]) {
 fn main() -> std::io::Result<()> {
     let args: Vec<String> = std::env::args().collect();
     let usage = || -> ! {
-        eprintln!("usage: vs_embree SCENE OUT [PASSES] [RAYS_SCENE]");
+        eprintln!("usage: vs_embree SCENE OUT [PASSES] [RAYS_SCENE] [SET]");
         std::process::exit(2)
     };
     let (Some(name), Some(path)) = (args.get(1), args.get(2)) else {
@@ -188,7 +188,8 @@ fn main() -> std::io::Result<()> {
         scene.spheres.cx.len(),
         raytracer::lanes::AVX2
     );
-    for s in &sets {
+    let only = args.get(5);
+    for s in sets.iter().filter(|s| only.is_none_or(|o| o == s.name)) {
         let rays: u32 = s.packets.iter().map(|p| p.0.count_ones()).sum();
         if passes == 0 {
             println!("{:<8} {rays} rays, answer {}", s.name, s.answer);

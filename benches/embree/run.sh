@@ -50,23 +50,25 @@ for r in $(seq "$rounds"); do
 done
 
 echo
-echo "median over $rounds rounds of each run's median (Mrays/s, one thread):"
-printf '%-13s %-8s %8s %8s %7s\n' case set ours embree ratio
+echo "median over $rounds rounds of each run's median, and their range (Mrays/s, one thread):"
+printf '%-13s %-8s %20s %20s %7s\n' case set ours embree ratio
 awk '/median/ {
     for (i = 1; i <= NF; i++) if ($i == "median") v = $(i + 1)
     key = $1 " " $3; sub(/;$/, "", v)
     vals[key, $2] = vals[key, $2] " " v
     if (!(key in seen)) { seen[key] = 1; order[++n] = key }
 }
-function med(s,   a, k, i, j, t) {
+# Median, minimum and maximum of a space-separated list.
+function stats(s, out,   a, k, i, j, t) {
     k = split(s, a, " ")
     for (i = 1; i <= k; i++) for (j = i + 1; j <= k; j++) if (a[j] + 0 < a[i] + 0) { t = a[i]; a[i] = a[j]; a[j] = t }
-    return k % 2 ? a[(k + 1) / 2] : (a[k / 2] + a[k / 2 + 1]) / 2
+    out[1] = k % 2 ? a[(k + 1) / 2] : (a[k / 2] + a[k / 2 + 1]) / 2
+    out[2] = a[1]; out[3] = a[k]
 }
 END {
     for (i = 1; i <= n; i++) {
         split(order[i], p, " ")
-        o = med(vals[order[i], "ours"]); e = med(vals[order[i], "embree"])
-        printf "%-13s %-8s %8.1f %8.1f %6.2fx\n", p[1], p[2], o, e, o / e
+        stats(vals[order[i], "ours"], o); stats(vals[order[i], "embree"], e)
+        printf "%-13s %-8s %6.1f (%4.1f-%4.1f) %6.1f (%4.1f-%4.1f) %6.2fx\n", p[1], p[2], o[1], o[2], o[3], e[1], e[2], e[3], o[1] / e[1]
     }
 }' "$log"
