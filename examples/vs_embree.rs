@@ -129,11 +129,12 @@ fn main() -> std::io::Result<()> {
             eprintln!("{e}");
             std::process::exit(2)
         });
+        let t = Instant::now();
         let accel = Accel::build(&mut scene, AccelKind::Bvh);
-        (scene, accel)
+        (scene, accel, t.elapsed())
     };
-    let (scene, accel) = load(name);
-    let (source, source_accel) = load(rays_from);
+    let (scene, accel, build) = load(name);
+    let (source, source_accel, _) = load(rays_from);
 
     let single = camera_rays(&source, source.spp);
     let p8 = camera_packets(&source, 8);
@@ -161,10 +162,10 @@ fn main() -> std::io::Result<()> {
             rays: Rays::Lanes(in_lanes(&p8)),
         },
     ];
-    if rays_from == "bunny" {
-        let LightShape::Point { center, radius } = scene.lights[0].shape else {
-            panic!("light 0 of {name} is not a point light");
-        };
+    // The shadow rays of `bunny`, traced towards the traced scene's first light (the same
+    // point light, in `bunny-mesh.toml`).
+    let light = scene.lights.first().map(|l| &l.shape);
+    if let (true, Some(&LightShape::Point { center, radius })) = (rays_from == "bunny", light) {
         let s8 = shadow_packets(&source, &source_accel, &p8);
         // Ends just short of the light sphere: Embree then reports any occluder.
         let t_far = |r: &Ray| sphere_t(r, center, radius) * (1.0 - 1e-4);
@@ -183,9 +184,10 @@ fn main() -> std::io::Result<()> {
     write(path, &scene, &sets)?;
 
     println!(
-        "ours: {} triangles, {} spheres (AVX2 compiled in: {})",
+        "ours: {} triangles, {} spheres, build {:.2} ms (AVX2 compiled in: {})",
         scene.triangles.len(),
         scene.spheres.cx.len(),
+        build.as_secs_f64() * 1e3,
         raytracer::lanes::AVX2
     );
     let only = args.get(5);

@@ -3,12 +3,15 @@
 #
 #   benches/embree/run.sh [ROUNDS] [PASSES]     (defaults 3 and 5)
 #
-# Four cases: `bunny` and `bunny-closeup` as they are (a mesh and three spheres; Embree
-# gets the spheres as sphere points), and the same two with only the mesh and the light
-# (`bunny-mesh.toml`, `bunny-closeup-mesh.toml`, traced with the full scenes' rays; Embree
-# gets the mesh alone, so it does less work than we do). Each round runs `vs_embree`
-# (ours) then `embree_bench` (Embree) on each case; each prints every pass and the
-# median of its passes. The summary is the median, over rounds, of those medians.
+# Five cases. `bunny` and `closeup`: the built-in scenes as they are (a mesh and three
+# spheres; Embree gets the spheres as sphere points, in a second BVH of its own).
+# `bunny-mesh` and `closeup-mesh`: the same camera rays on the mesh alone (both tracers
+# get the same triangles and nothing else). `bunny-light`: `bunny`'s shadow rays on its
+# mesh and its point light (ours needs the light's sphere to answer a shadow query, and
+# tests it beside the tree; Embree gets the mesh alone, each ray ending just short of
+# the light). Each round runs `vs_embree` (ours) then `embree_bench` (Embree) on each
+# case; each prints every pass and the median of its passes. The summary is the median,
+# over rounds, of those medians.
 #
 # Needs a C compiler and Embree 3 (Debian: `apt-get install libembree-dev`, 3.13.5).
 set -euo pipefail
@@ -26,25 +29,28 @@ cc -O3 -march=native -Wall -o "$work/embree_bench" benches/embree/embree_bench.c
 cargo build --release --example vs_embree
 ours=target/release/examples/vs_embree
 
-cases=("bunny bunny" "bunny-closeup bunny-closeup"
-    "benches/embree/bunny-mesh.toml bunny" "benches/embree/bunny-closeup-mesh.toml bunny-closeup")
-names=(bunny closeup bunny-mesh closeup-mesh)
-for i in "${!cases[@]}"; do
-    read -r scene rays <<<"${cases[$i]}"
-    "$ours" "$scene" "$work/${names[$i]}.rays" 0 "$rays" >/dev/null
+# name, scene traced, scene the rays are made in, the set timed (all: every set), and
+# whether Embree gets the mesh alone
+cases=("bunny bunny bunny all 0" "closeup bunny-closeup bunny-closeup all 0"
+    "bunny-mesh benches/embree/bunny-mesh.toml bunny all 1"
+    "closeup-mesh benches/embree/bunny-closeup-mesh.toml bunny-closeup all 1"
+    "bunny-light benches/embree/bunny-mesh-light.toml bunny shadow8 1")
+for c in "${cases[@]}"; do
+    read -r n scene rays _ _ <<<"$c"
+    "$ours" "$scene" "$work/$n.rays" 0 "$rays" >/dev/null
 done
 
 log="$work/log.txt"
 : >"$log"
 for r in $(seq "$rounds"); do
     echo "round $r, load: $(cut -d' ' -f1-3 /proc/loadavg)"
-    for i in "${!cases[@]}"; do
-        read -r scene rays <<<"${cases[$i]}"
-        n=${names[$i]}
-        "$ours" "$scene" "$work/$n.rays" "$passes" "$rays" | sed "s/^/$n ours /" | tee -a "$log"
-        mesh=0
-        [[ $n == *-mesh ]] && mesh=1
-        EMBREE_MESH_ONLY=$mesh "$work/embree_bench" "$work/$n.rays" "$passes" |
+    for c in "${cases[@]}"; do
+        read -r n scene rays set mesh <<<"$c"
+        [ "$set" = all ] && set=""
+        # shellcheck disable=SC2086 # $set is one word or none
+        "$ours" "$scene" "$work/$n.rays" "$passes" "$rays" $set | sed "s/^/$n ours /" | tee -a "$log"
+        # shellcheck disable=SC2086
+        EMBREE_MESH_ONLY=$mesh "$work/embree_bench" "$work/$n.rays" "$passes" $set |
             sed "s/^/$n embree /" | tee -a "$log"
     done
 done
