@@ -1,6 +1,7 @@
 //! Every built-in scene: renders without NaN or infinity, renders the same bits on any
 //! number of threads, and looks like the original program's picture of it (block means
-//! against `tests/data/seed-renders/`, the seed's own 800-pixel renders).
+//! against `tests/data/seed-renders/`, the seed's own 800-pixel renders); and the scenes
+//! of the comparison with Embree are the built-in ones cut down.
 
 mod support;
 
@@ -130,5 +131,51 @@ fn looks_like_the_seed_render() {
             max < MAX_BLOCK && mean < MEAN_BLOCK,
             "{name}: max {max:.2}, mean {mean:.3}"
         );
+    }
+}
+
+/// The scenes of the comparison with Embree (`benches/embree/`) are the built-in ones cut
+/// down: the same camera, the same triangles bit for bit, and only the light's sphere
+/// (`bunny-mesh-light.toml`) or nothing else (`*-mesh.toml`).
+#[test]
+fn the_embree_comparison_scenes_cut_down_the_builtin_ones() {
+    use raytracer::scene::{Overrides, Scene};
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/embree");
+    for (file, builtin_name, spheres) in [
+        ("bunny-mesh.toml", "bunny", 0),
+        ("bunny-closeup-mesh.toml", "bunny-closeup", 0),
+        ("bunny-mesh-light.toml", "bunny", 1),
+    ] {
+        let cut = Scene::load(&format!("{dir}/{file}"), Overrides::default()).unwrap();
+        let full = Scene::load(builtin_name, Overrides::default()).unwrap();
+        let cam = |s: &Scene| {
+            let c = &s.camera;
+            (c.width, c.height, c.origin, c.ray(17, 29, 0.25, 0.75))
+        };
+        assert_eq!(cam(&cut), cam(&full), "{file}: camera");
+        assert_eq!(cut.spp, full.spp, "{file}");
+        let t = |s: &Scene| {
+            let tri = &s.triangles;
+            (0..tri.len())
+                .map(|i| tri.vertices(i).map(|v| v.to_array().map(f32::to_bits)))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(t(&cut), t(&full), "{file}: triangles");
+        assert_eq!(cut.spheres.len(), spheres, "{file}: spheres");
+        if spheres == 1 {
+            let l = |s: &Scene| {
+                (
+                    s.spheres.cx[0],
+                    s.spheres.cy[0],
+                    s.spheres.cz[0],
+                    s.spheres.radius[0],
+                )
+            };
+            assert_eq!(l(&cut), l(&full), "{file}: the light's sphere");
+            assert_eq!(cut.lights.len(), 1, "{file}");
+        } else {
+            assert!(cut.lights.is_empty(), "{file}");
+        }
+        assert_eq!(cut.quads.len(), 0, "{file}");
     }
 }
