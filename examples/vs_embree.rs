@@ -21,7 +21,7 @@
 //!   order of `benches/packets.rs` (`closest_hit_packet`, rays already in lanes);
 //! - `shadow8` (when the rays' scene is `bunny`): the shadow rays from those packets' hits
 //!   to light 0, as `benches/packets.rs` makes them (`light_visible_packet`); for Embree
-//!   each ends just short of its first hit of the light sphere.
+//!   each ends just short of the light's own nearest hit (`Light::nearest_hit`).
 //!
 //! Format (little-endian): `u32` triangle count, then per triangle nine `f32` (a, b, c);
 //! `u32` sphere count, then per sphere centre and radius (four `f32`); `f32` t_min;
@@ -37,23 +37,10 @@ use raytracer::accel::packet::RayPacket;
 use raytracer::accel::{Accel, AccelKind, TraversalStats};
 use raytracer::geometry::Ray;
 use raytracer::integrator::T_MIN;
-use raytracer::scene::{LightShape, Overrides, Scene};
+use raytracer::scene::{Overrides, Scene};
 use std::io::Write;
 use std::time::Instant;
 use wide::f32x8;
-
-/// The nearer root of `ray` against a sphere, in f64 (+∞ on a miss).
-fn sphere_t(ray: &Ray, center: glam::Vec3, radius: f32) -> f32 {
-    let o = (ray.origin - center).as_dvec3();
-    let d = ray.dir.as_dvec3();
-    let (a, b, c) = (d.dot(d), o.dot(d), o.dot(o) - (radius as f64).powi(2));
-    let disc = b * b - a * c;
-    if disc < 0.0 {
-        return f32::INFINITY;
-    }
-    let t = (-b - disc.sqrt()) / a;
-    t as f32
-}
 
 struct Set {
     name: &'static str,
@@ -163,12 +150,13 @@ fn main() -> std::io::Result<()> {
         },
     ];
     // The shadow rays of `bunny`, traced towards the traced scene's first light (the same
-    // point light, in `bunny-mesh.toml`).
-    let light = scene.lights.first().map(|l| &l.shape);
-    if let (true, Some(&LightShape::Point { center, radius })) = (rays_from == "bunny", light) {
+    // point light, in `bunny-mesh-light.toml`).
+    if let (true, Some(light)) = (rays_from == "bunny", scene.lights.first()) {
         let s8 = shadow_packets(&source, &source_accel, &p8);
-        // Ends just short of the light sphere: Embree then reports any occluder.
-        let t_far = |r: &Ray| sphere_t(r, center, radius) * (1.0 - 1e-4);
+        // Ends just short of the light's own nearest hit (as ours finds it): Embree then
+        // reports any occluder.
+        let t_far =
+            |r: &Ray| light.nearest_hit(r, T_MIN).map_or(f32::INFINITY, |h| h.0) * (1.0 - 1e-4);
         sets.push(Set {
             name: "shadow8",
             occlusion: true,
