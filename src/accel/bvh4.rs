@@ -373,6 +373,27 @@ impl Closest {
         self.t_max = t;
     }
 
+    /// `offer` for each lane of `mask` whose `t` is still within `t_max`: primitive
+    /// `first + k` of `kind`, its id from `ids` (lanes in pool order, as the scan offers).
+    #[inline(always)]
+    fn offer_lanes(
+        &mut self,
+        t: [f32; 4],
+        mut mask: u32,
+        first: usize,
+        ids: &[u32],
+        kind: PrimKind,
+    ) {
+        while mask != 0 {
+            let k = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            if t[k] <= self.t_max {
+                let i = first + k;
+                self.offer(t[k], ids[i], kind, i);
+            }
+        }
+    }
+
     #[inline(always)]
     fn hit(&self, scene: &Scene) -> Option<Hit> {
         if self.id == u32::MAX {
@@ -405,15 +426,8 @@ impl Closest {
         t_min: f32,
     ) {
         let tri = &scene.triangles;
-        let (t, mut mask) = tri.intersect4_in(cols, start, n, ray, t_min, self.t_max);
-        while mask != 0 {
-            let k = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            if t[k] <= self.t_max {
-                let i = start + k;
-                self.offer(t[k], tri.id[i], PrimKind::Triangle, i);
-            }
-        }
+        let (t, mask) = tri.intersect4_in(cols, start, n, ray, t_min, self.t_max);
+        self.offer_lanes(t, mask, start, &tri.id, PrimKind::Triangle);
     }
 
     /// `linear::intersect_range` on this state: spheres and triangles four at a time,
@@ -435,15 +449,8 @@ impl Closest {
                 let s = &scene.spheres;
                 while start < range.end {
                     let n = (range.end - start).min(4);
-                    let (t, mut mask) = s.intersect4(start, n, &consts.sphere, t_min, self.t_max);
-                    while mask != 0 {
-                        let k = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
-                        if t[k] <= self.t_max {
-                            let i = start + k;
-                            self.offer(t[k], s.id[i], kind, i);
-                        }
-                    }
+                    let (t, mask) = s.intersect4(start, n, &consts.sphere, t_min, self.t_max);
+                    self.offer_lanes(t, mask, start, &s.id, kind);
                     start += n;
                 }
             }
@@ -692,16 +699,14 @@ impl Bvh4 {
                     Vec4::splat(c.t_max),
                 );
                 let first = 4 * g;
-                let t = t.to_array();
-                let mut mask = hit.bitmask() & ((1u32 << (n - first).min(4)) - 1);
-                while mask != 0 {
-                    let k = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    if t[k] <= c.t_max {
-                        let i = spheres.start + first + k;
-                        c.offer(t[k], s.id[i], PrimKind::Sphere, i);
-                    }
-                }
+                let mask = hit.bitmask() & ((1u32 << (n - first).min(4)) - 1);
+                c.offer_lanes(
+                    t.to_array(),
+                    mask,
+                    spheres.start + first,
+                    &s.id,
+                    PrimKind::Sphere,
+                );
             }
         }
         if !self.linear[1].is_empty() || !self.linear[2].is_empty() {
