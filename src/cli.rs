@@ -216,6 +216,10 @@ pub struct Rays {
     /// and packets answered by the scene-bounds test.
     pub shadow_culled: u64,
     pub packets_outside: u64,
+    /// Camera packets' tests ruled out by their tile's cone: primitive tests beside the
+    /// tree (one a lane), and tree traversals.
+    pub cone_prims: u64,
+    pub cone_trees: u64,
 }
 
 impl From<RayCounts> for Rays {
@@ -227,6 +231,8 @@ impl From<RayCounts> for Rays {
             total: c.total(),
             shadow_culled: c.shadow_culled,
             packets_outside: c.packets_outside,
+            cone_prims: c.cone_prims,
+            cone_trees: c.cone_trees,
         }
     }
 }
@@ -383,6 +389,12 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
                 "stats: skipped: {} shadow rays (their light sample adds nothing, lit or not), {} packets outside the scene bounds",
                 counts.shadow_culled, counts.packets_outside
             );
+            if args.packet_width > 1 {
+                eprintln!(
+                    "stats: skipped by the tiles' camera cones: {} primitive tests beside the tree (lanes), {} camera packets' tree traversals",
+                    counts.cone_prims, counts.cone_trees
+                );
+            }
         }
         let w = args.packet_width;
         if w > 1 {

@@ -186,6 +186,10 @@ fn render_tile_packets<L: Lane>(
     let tw = x1 - x0;
     let mut counts = RayCounts::default();
     let mut pixels = vec![Vec3::ZERO; (tw * (y1 - y0)) as usize];
+    // What the tile's camera rays may hit (the packets' footprints may reach past the
+    // tile's edge: those lanes are inactive and never reported).
+    let cull = tracer.camera_cull(x0, y0, x1, y1);
+    let (cone_prims, cone_tree) = cull.skipped(tracer.accel);
     for py in (y0..y1).step_by(fh as usize) {
         for px in (x0..x1).step_by(fw as usize) {
             let mut active = 0u32;
@@ -197,7 +201,9 @@ fn render_tile_packets<L: Lane>(
             }
             let mut sums = [Vec3::ZERO; MAX_WIDTH];
             for s in 0..spp {
-                let c = tracer.sample_packet::<L>(px, py, active, s, &mut counts);
+                let c = tracer.sample_packet::<L>(px, py, active, s, cull, &mut counts);
+                counts.cone_prims += cone_prims * active.count_ones() as u64;
+                counts.cone_trees += cone_tree as u64;
                 for k in 0..L::WIDTH {
                     sums[k] += c[k];
                 }

@@ -80,6 +80,7 @@ fn specialisation_skips_work_and_keeps_the_bits() {
         let accel = Accel::build(&mut scene, AccelKind::Bvh);
         let (reference, general) = render_counts(&scene, &accel, 1, 2, false);
         assert_eq!(general.shadow_culled + general.packets_outside, 0);
+        assert_eq!(general.cone_prims + general.cone_trees, 0);
         let (scalar, c1) = render_counts(&scene, &accel, 1, 2, true);
         let (packets, c8) = render_counts(&scene, &accel, 8, 2, true);
         let (packets_general, _) = render_counts(&scene, &accel, 8, 2, false);
@@ -91,6 +92,16 @@ fn specialisation_skips_work_and_keeps_the_bits() {
         assert_eq!(c8.shadow + c8.shadow_culled, general.shadow, "{name}");
         assert_eq!(c1.shadow_culled, c8.shadow_culled, "{name}");
         assert!(c8.shadow_culled > 0, "{name}: no shadow ray was culled");
+        // Every scene has a primitive beside the tree that some tile cannot see.
+        assert!(
+            c8.cone_prims > 0,
+            "{name}: no test ruled out by a tile's cone"
+        );
+        assert_eq!(
+            c1.cone_prims + c1.cone_trees,
+            0,
+            "{name}: the scalar path has no cones"
+        );
         if name.starts_with("cornell") || *name == "quads" {
             assert!(c8.packets_outside > 0, "{name}: no packet left at once");
         }
@@ -346,4 +357,73 @@ fn packet_rays_cover_hits_of_every_kind() {
     }
     assert_eq!(kinds.len(), 3, "{kinds:?}");
     assert!(hits > 500 && misses > 500, "{hits} hits, {misses} misses");
+}
+
+/// A tile's camera cone never rules out what a camera ray of the tile hits: every
+/// built-in scene, 64 pixels wide, each 16-pixel tile (and a few odd rectangles), rays
+/// at the pixels' corners and at random jitters. The primitive each ray hits (scalar
+/// closest hit) is kept by the rectangle's `camera_cull`. And the cull is no
+/// formality: across the scenes it rules out most tiles' tests of some primitive.
+#[test]
+fn a_tiles_cone_keeps_every_primitive_its_camera_rays_hit() {
+    let mut rng = Rng(11);
+    let (mut checked, mut ruled_out) = (0u64, 0u64);
+    for (name, _) in SCENES {
+        let mut scene = builtin(name, 64, 1);
+        let accel = Accel::build(&mut scene, AccelKind::Bvh);
+        let Accel::Bvh(bvh) = &accel else {
+            unreachable!()
+        };
+        let tracer = raytracer::integrator::Tracer::new(&scene, &accel, 0);
+        let (w, h) = (scene.camera.width, scene.camera.height);
+        let mut rects = Vec::new();
+        for ty in (0..h).step_by(16) {
+            for tx in (0..w).step_by(16) {
+                rects.push((tx, ty, (tx + 16).min(w), (ty + 16).min(h)));
+            }
+        }
+        rects.extend([
+            (0, 0, w, h),
+            (3, 5, 4, 6),
+            (w - 1, h - 1, w, h),
+            (10, 0, 37, 3),
+        ]);
+        for &(x0, y0, x1, y1) in &rects {
+            let cull = tracer.camera_cull(x0, y0, x1, y1);
+            ruled_out += (0..3)
+                .map(|k| (!cull.beside[k]).count_ones() as u64)
+                .sum::<u64>();
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    let jitters = [(0.0, 0.0), (0.99999994, 0.99999994), (rng.f32(), rng.f32())];
+                    for (jx, jy) in jitters {
+                        let ray = scene.camera.ray(x, y, jx, jy);
+                        let mut s = TraversalStats::default();
+                        let Some(hit) =
+                            accel.closest_hit(&scene, &ray, T_MIN, f32::INFINITY, &mut s)
+                        else {
+                            continue;
+                        };
+                        let k = hit.kind as usize;
+                        let range = &bvh.linear[k];
+                        let i = hit.index as usize;
+                        let kept = if range.contains(&i) {
+                            i - range.start >= 32 || cull.beside[k] >> (i - range.start) & 1 != 0
+                        } else {
+                            cull.tree
+                        };
+                        assert!(
+                            kept,
+                            "{name}: pixel ({x}, {y}) hits {hit:?}, ruled out by {cull:?}"
+                        );
+                        checked += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        checked > 100_000 && ruled_out > 200,
+        "{checked} {ruled_out}"
+    );
 }

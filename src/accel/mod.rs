@@ -9,6 +9,7 @@
 
 pub mod build;
 pub mod bvh4;
+pub mod cull;
 pub mod linear;
 pub mod packet;
 

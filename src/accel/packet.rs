@@ -11,6 +11,7 @@
 use super::bvh4::{
     decode_leaf, plane_rows, slab, BoxRay, Bvh4, Node4, EMPTY, FAR_SCALE, LEAF, NEAR_SCALE,
 };
+use super::cull::Cull;
 use super::linear::PrimRay;
 use super::TraversalStats;
 use crate::geometry::quad::Quad;
@@ -53,6 +54,9 @@ pub struct RayPacket<L: Lane> {
     /// holding each axis' near and far planes, as `BoxRay` picks them, so a child's box
     /// test is six broadcast loads with no per-axis select.
     box_rows: Option<([usize; 3], [usize; 3])>,
+    /// What the packet's rays may hit (`cull`): the closest-hit traversal skips the
+    /// rest. `Cull::ALL` unless a caller knows better (`with_cull`).
+    cull: Cull,
 }
 
 impl<L: Lane> RayPacket<L> {
@@ -135,7 +139,17 @@ impl<L: Lane> RayPacket<L> {
             negative,
             sphere_a,
             sphere_inv_a: one / sphere_a,
+            cull: Cull::ALL,
         }
+    }
+
+    /// This packet, its closest-hit traversal skipping what `cull` rules out. The
+    /// caller vouches that none of the packet's rays can hit what is ruled out
+    /// (`cull::Cone`).
+    #[inline]
+    pub fn with_cull(mut self, cull: Cull) -> Self {
+        self.cull = cull;
+        self
     }
 
     /// `WatertightRay::new`'s constants lane-wise. When every lane picks the same axes,
@@ -701,17 +715,39 @@ impl Bvh4 {
             best: [None; MAX_WIDTH],
         };
         for (k, kind) in KINDS.into_iter().enumerate() {
+            // (Only non-empty runs: an empty pool must not make the watertight lanes,
+            // `tris.get`.)
             let range = self.linear[k].clone();
-            // (Not for an empty range: an empty pool must not make the watertight
-            // lanes, `tris.get`.)
-            if !range.is_empty() {
+            if range.is_empty() {
+                continue;
+            }
+            if p.cull.beside[k] == u32::MAX {
                 stats.prims += (range.len() * p.active.count_ones() as usize) as u64;
                 st.leaf(scene, p, kind, range, t_min, p.active, tris.get(kind));
+                continue;
+            }
+            // The primitives the cull keeps (past the 32nd, all), in pool order.
+            let first = range.start;
+            let n = range.len().min(32);
+            let mut kept = p.cull.beside[k] & if n == 32 { u32::MAX } else { (1 << n) - 1 };
+            while kept != 0 {
+                let i = first + kept.trailing_zeros() as usize;
+                kept &= kept - 1;
+                stats.prims += p.active.count_ones() as u64;
+                st.leaf(scene, p, kind, i..i + 1, t_min, p.active, tris.get(kind));
+            }
+            if range.len() > 32 {
+                let rest = first + 32..range.end;
+                stats.prims += (rest.len() * p.active.count_ones() as usize) as u64;
+                st.leaf(scene, p, kind, rest, t_min, p.active, tris.get(kind));
             }
         }
         let Some(root) = self.root else {
             return st.best;
         };
+        if !p.cull.tree {
+            return st.best;
+        }
         let fallback = RayPacket::<L>::fallback();
         let mut stack = [MaybeUninit::<(u32, u32, f32)>::uninit(); STACK_SIZE];
         let mut sp = 0;

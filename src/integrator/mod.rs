@@ -10,6 +10,7 @@ mod packet;
 
 pub use packet::footprint;
 
+use crate::accel::cull::{Cone, Cull, CullTargets};
 use crate::accel::packet::MAX_WIDTH;
 use crate::accel::{Accel, TraversalStats};
 use crate::geometry::spawn::{
@@ -43,6 +44,10 @@ pub struct RayCounts {
     /// adds nothing whether lit or not, and packets answered by the scene-bounds test.
     pub shadow_culled: u64,
     pub packets_outside: u64,
+    /// Camera rays' tests skipped by their tile's cone (`Tracer::camera_cull`):
+    /// primitive tests beside the tree (one a lane), and packets kept out of the tree.
+    pub cone_prims: u64,
+    pub cone_trees: u64,
     /// Packets traced, by kind, and their active lanes (zero on the scalar path).
     pub camera_packets: LaneUse,
     pub shadow_packets: LaneUse,
@@ -85,6 +90,8 @@ impl RayCounts {
         self.secondary += o.secondary;
         self.shadow_culled += o.shadow_culled;
         self.packets_outside += o.packets_outside;
+        self.cone_prims += o.cone_prims;
+        self.cone_trees += o.cone_trees;
         self.traversal.add(&o.traversal);
         self.camera_packets.add(&o.camera_packets);
         self.shadow_packets.add(&o.shadow_packets);
@@ -144,6 +151,8 @@ pub struct Tracer<'a> {
     pub specialize: bool,
     /// The packet tracer's per-object tables (`packet::ShadeTables`).
     pub(crate) tables: packet::ShadeTables,
+    /// The bounding balls `camera_cull` tests (`None` for the linear scan).
+    cull_targets: Option<CullTargets>,
 }
 
 impl<'a> Tracer<'a> {
@@ -159,6 +168,28 @@ impl<'a> Tracer<'a> {
             sampler,
             specialize: true,
             tables: packet::ShadeTables::new(scene),
+            cull_targets: CullTargets::new(scene, accel),
+        }
+    }
+
+    /// What the camera rays of the pixels `[x0, x1) × [y0, y1)` may hit, any jitter:
+    /// the cone from the camera through the corners of that rectangle of the image plane
+    /// holds every one of their rays (`cull::Cone`). `Cull::ALL` when not specialising.
+    pub fn camera_cull(&self, x0: u32, y0: u32, x1: u32, y1: u32) -> Cull {
+        let Some(targets) = self.cull_targets.as_ref().filter(|_| self.specialize) else {
+            return Cull::ALL;
+        };
+        let c = &self.scene.camera;
+        let origin = c.origin.as_dvec3();
+        let corners = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)].map(|(x, y)| {
+            c.corner.as_dvec3()
+                + c.pixel_du.as_dvec3() * x as f64
+                + c.pixel_dv.as_dvec3() * y as f64
+                - origin
+        });
+        match Cone::through(origin, &corners) {
+            Some(cone) => targets.cull(&cone),
+            None => Cull::ALL,
         }
     }
 

@@ -16,6 +16,7 @@ use super::{
     adds_nothing_lanes, direction_to, mirror_direction, mirror_fresnel, scatter, PhongLanes,
     RayCounts, Tracer, T_MIN,
 };
+use crate::accel::cull::Cull;
 use crate::accel::packet::{RayPacket, MAX_WIDTH};
 use crate::geometry::spawn::{spawn_origin, spawn_ray};
 use crate::geometry::Ray;
@@ -108,12 +109,15 @@ impl Tracer<'_> {
     /// Camera sample `sample` of the pixels of a packet whose lane 0 is pixel (x0, y0):
     /// lane i is pixel (x0 + i mod w, y0 + i div w) of the footprint, traced if bit i
     /// of `active` is set. Lane i's colour is `sample(x, y, sample)` of its pixel.
+    /// `cull`: what the packet's rays may hit, from `camera_cull` of a rectangle holding
+    /// its pixels (`Cull::ALL` to test everything).
     pub fn sample_packet<L: Lane>(
         &self,
         x0: u32,
         y0: u32,
         active: u32,
         sample: u32,
+        cull: Cull,
         counts: &mut RayCounts,
     ) -> [Vec3; MAX_WIDTH] {
         let (fw, _) = footprint(L::WIDTH);
@@ -147,7 +151,7 @@ impl Tracer<'_> {
             lane(&jy),
         );
         let origin = V3::splat(self.scene.camera.origin);
-        let packet = RayPacket::from_lanes(origin, dir, active);
+        let packet = RayPacket::from_lanes(origin, dir, active).with_cull(cull);
         counts.camera += active.count_ones() as u64;
         counts.camera_packets.record(active);
         self.shade_packet::<L>(packet, active, &keys, 0, self.scene.max_depth, true, counts)

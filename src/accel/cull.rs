@@ -1,0 +1,241 @@
+//! Cheap misses for rays from one point: a cone from the camera through a tile's pixels
+//! rules out the primitives beside the tree, and the tree itself, that none of the
+//! tile's camera rays can reach (`design.md` §3: "cheap misses matter as much as fast
+//! triangle tests"; §6: skip what a scene does not need).
+//!
+//! Only misses are skipped: a primitive whose bounding sphere lies outside the cone, by
+//! a margin far above the f32 rounding of the traced rays, cannot be hit by any of them,
+//! so its test would have reported nothing. The image is the same bits.
+
+use super::Accel;
+use crate::geometry::Aabb;
+use crate::scene::Scene;
+use glam::DVec3;
+
+/// What a bundle of rays may hit: bit i of `beside[k]` is the i-th primitive of kind k
+/// beside the tree (`Bvh4::linear[k]`; those past the 32nd are always tested), and
+/// `tree` the tree.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Cull {
+    pub beside: [u32; 3],
+    pub tree: bool,
+}
+
+impl Cull {
+    /// Test everything.
+    pub const ALL: Cull = Cull {
+        beside: [u32::MAX; 3],
+        tree: true,
+    };
+
+    /// The primitive tests and the tree this leaves out, for `--stats`: (primitives
+    /// beside the tree, tree) skipped.
+    pub fn skipped(&self, accel: &Accel) -> (u64, bool) {
+        match accel {
+            Accel::Linear(_) => (0, false),
+            Accel::Bvh(b) => {
+                let prims = (0..3)
+                    .map(|k| {
+                        let n = b.linear[k].len().min(32) as u32;
+                        let all = if n == 32 { u32::MAX } else { (1 << n) - 1 };
+                        (all & !self.beside[k]).count_ones() as u64
+                    })
+                    .sum();
+                (prims, b.root.is_some() && !self.tree)
+            }
+        }
+    }
+}
+
+/// Angular margin (radians) added to a cone's half-angle: the traced rays' directions
+/// are f32 (relative error ~1e-7, so ~1e-7 rad) and a sphere test accepts rays passing
+/// a few ulps outside; 1e-5 rad is a hundred times that, and costs nothing measurable.
+const MARGIN: f64 = 1e-5;
+
+/// A circular cone of rays from `apex`, of half-angle `angle` (margin included)
+/// around the unit `axis`.
+#[derive(Clone, Copy, Debug)]
+pub struct Cone {
+    apex: DVec3,
+    axis: DVec3,
+    angle: f64,
+}
+
+impl Cone {
+    /// A cone from `apex` holding every direction that is a non-negative combination
+    /// of `dirs` (a cone is convex, so it holds them if it holds each `dir`). `None` when
+    /// a direction is zero or not finite, or when the directions span half a space or
+    /// more (no useful cone).
+    pub fn through(apex: DVec3, dirs: &[DVec3]) -> Option<Cone> {
+        let mut sum = DVec3::ZERO;
+        let mut units = Vec::with_capacity(dirs.len());
+        for d in dirs {
+            let u = d.try_normalize()?;
+            sum += u;
+            units.push(u);
+        }
+        let axis = sum.try_normalize()?;
+        let cos = units
+            .iter()
+            .map(|u| axis.dot(*u))
+            .fold(f64::INFINITY, f64::min);
+        // (`cos` is NaN for NaN input: no cone then either.)
+        if cos.is_nan() || cos <= 0.0 || !apex.is_finite() {
+            return None;
+        }
+        Some(Cone {
+            apex,
+            axis,
+            angle: cos.min(1.0).acos() + MARGIN,
+        })
+    }
+
+    /// Whether a ray of the cone can meet the ball of `center` and `radius`: the
+    /// direction to the centre is within the half-angle plus the ball's angular radius.
+    pub fn may_meet(&self, center: DVec3, radius: f64) -> bool {
+        let v = center - self.apex;
+        let dist = v.length();
+        // The apex inside (or on) the ball, or a ball too wide to bound by angles.
+        if !dist.is_finite() || !radius.is_finite() || dist <= radius * (1.0 + 1e-9) {
+            return true;
+        }
+        let alpha = (radius / dist).asin();
+        let beta = (self.axis.dot(v) / dist).clamp(-1.0, 1.0).acos();
+        beta <= self.angle + alpha + MARGIN
+    }
+
+    /// `may_meet` for the ball around a box (centre and half-diagonal).
+    pub fn may_meet_box(&self, b: &Aabb) -> bool {
+        let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+        if !(lo.cmple(hi).all()) {
+            // An empty box holds nothing.
+            return false;
+        }
+        self.may_meet((lo + hi) * 0.5, (hi - lo).length() * 0.5 * (1.0 + 1e-9))
+    }
+}
+
+/// The bounding balls the cull tests: those of the primitives beside the tree (by kind,
+/// the first 32) and of the tree's primitives.
+#[derive(Clone, Debug, Default)]
+pub struct CullTargets {
+    beside: [Vec<(DVec3, f64)>; 3],
+    tree: Option<Aabb>,
+}
+
+impl CullTargets {
+    /// `None` for the linear scan (it has no tree to skip, and is kept as the seed's
+    /// algorithm).
+    pub fn new(scene: &Scene, accel: &Accel) -> Option<CullTargets> {
+        let Accel::Bvh(b) = accel else {
+            return None;
+        };
+        let ball = |a: &Aabb| {
+            let (lo, hi) = (a.min.as_dvec3(), a.max.as_dvec3());
+            ((lo + hi) * 0.5, (hi - lo).length() * 0.5)
+        };
+        let s = &scene.spheres;
+        let beside = [
+            // A sphere is its own ball.
+            b.linear[0]
+                .clone()
+                .take(32)
+                .map(|i| (s.center(i).as_dvec3(), s.radius[i].abs() as f64))
+                .collect(),
+            b.beside_boxes[1].iter().map(ball).collect(),
+            b.beside_boxes[2].iter().map(ball).collect(),
+        ];
+        let tree = b.root.map(|_| b.tree_box);
+        Some(CullTargets { beside, tree })
+    }
+
+    /// What rays of `cone` may hit.
+    pub fn cull(&self, cone: &Cone) -> Cull {
+        let mut c = Cull {
+            beside: [u32::MAX; 3],
+            tree: self.tree.is_some_and(|t| cone.may_meet_box(&t)),
+        };
+        for (mask, balls) in c.beside.iter_mut().zip(&self.beside) {
+            for (i, &(center, radius)) in balls.iter().enumerate() {
+                if !cone.may_meet(center, radius) {
+                    *mask &= !(1 << i);
+                }
+            }
+        }
+        c
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Random unit-ish directions around an axis, and balls near the cone's edge: every
+    /// ball that some direction of the cone (sampled densely, in f64) passes through is
+    /// kept.
+    #[test]
+    fn a_ball_a_ray_of_the_cone_meets_is_never_ruled_out() {
+        let mut state = 0x2545_f491u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut kept_hits = 0;
+        let mut ruled_out = 0;
+        for _ in 0..400 {
+            let apex = DVec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 10.0;
+            let axis = DVec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize();
+            let spread = 0.3 * next();
+            let side = axis.any_orthonormal_pair();
+            let corners: Vec<DVec3> = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+                .iter()
+                .map(|&(a, b)| axis + (side.0 * a + side.1 * b) * spread)
+                .collect();
+            let cone = Cone::through(apex, &corners).unwrap();
+            for _ in 0..20 {
+                let radius = 0.5 * next() + 1e-3;
+                let center =
+                    apex + (axis * 5.0 + (side.0 * (next() - 0.5) + side.1 * (next() - 0.5)) * 8.0);
+                // Dense rays through the corners' quadrilateral.
+                let mut hit = false;
+                for i in 0..=40 {
+                    for j in 0..=40 {
+                        let (a, b) = (i as f64 / 40.0, j as f64 / 40.0);
+                        let d = (corners[0] * (1.0 - a) + corners[1] * a) * (1.0 - b)
+                            + (corners[3] * (1.0 - a) + corners[2] * a) * b;
+                        let d = d.normalize();
+                        let oc = center - apex;
+                        let t = oc.dot(d);
+                        if t > 0.0 && (oc - d * t).length() <= radius {
+                            hit = true;
+                        }
+                    }
+                }
+                let kept = cone.may_meet(center, radius);
+                if hit {
+                    assert!(kept, "apex {apex} centre {center} radius {radius}");
+                    kept_hits += 1;
+                } else if !kept {
+                    ruled_out += 1;
+                }
+            }
+        }
+        // The test is not vacuous: both cases occur often.
+        assert!(
+            kept_hits > 500 && ruled_out > 500,
+            "{kept_hits} {ruled_out}"
+        );
+    }
+
+    #[test]
+    fn an_apex_inside_the_ball_or_a_wide_cone_rules_nothing_out() {
+        let cone = Cone::through(DVec3::ZERO, &[DVec3::Z, DVec3::new(0.1, 0.0, 1.0)]).unwrap();
+        assert!(cone.may_meet(DVec3::new(0.0, 0.0, -0.5), 1.0));
+        assert!(!cone.may_meet(DVec3::new(0.0, 0.0, -5.0), 1.0));
+        assert!(Cone::through(DVec3::ZERO, &[DVec3::Z, -DVec3::Z]).is_none());
+        assert!(Cone::through(DVec3::ZERO, &[DVec3::Z, DVec3::ZERO]).is_none());
+        assert!(!cone.may_meet_box(&Aabb::EMPTY));
+    }
+}
