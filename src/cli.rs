@@ -213,7 +213,8 @@ pub struct Rays {
     pub secondary: u64,
     pub total: u64,
     /// Skipped by specialisation: shadow rays whose sample adds nothing lit or not,
-    /// and packets answered by the scene-bounds test.
+    /// and packets answered at once (outside the scene's box, or a tile's camera cone
+    /// that meets nothing).
     pub shadow_culled: u64,
     pub packets_outside: u64,
     /// Camera packets' tests ruled out by their tile's cone: primitive tests beside the
@@ -386,7 +387,7 @@ pub fn run(args: &Args) -> anyhow::Result<ExitCode> {
             eprintln!("stats: specialisation off (--no-specialize)");
         } else {
             eprintln!(
-                "stats: skipped: {} shadow rays (their light sample adds nothing, lit or not), {} packets outside the scene bounds",
+                "stats: skipped: {} shadow rays (their light sample adds nothing, lit or not), {} packets that miss everything (the scene's box, or their tile's cone)",
                 counts.shadow_culled, counts.packets_outside
             );
             if args.packet_width > 1 {

@@ -19,6 +19,8 @@ use glam::DVec3;
 pub struct Cull {
     pub beside: [u32; 3],
     pub tree: bool,
+    /// Nothing at all can be hit (every primitive ruled out).
+    pub nothing: bool,
 }
 
 impl Cull {
@@ -26,6 +28,7 @@ impl Cull {
     pub const ALL: Cull = Cull {
         beside: [u32::MAX; 3],
         tree: true,
+        nothing: false,
     };
 
     /// The primitive tests and the tree this leaves out, for `--stats`: (primitives
@@ -121,6 +124,8 @@ impl Cone {
 pub struct CullTargets {
     beside: [Vec<(DVec3, f64)>; 3],
     tree: Option<Aabb>,
+    /// Some kind has more than 32 primitives beside the tree (those are always tested).
+    more: bool,
 }
 
 impl CullTargets {
@@ -146,7 +151,8 @@ impl CullTargets {
             b.beside_boxes[2].iter().map(ball).collect(),
         ];
         let tree = b.root.map(|_| b.tree_box);
-        Some(CullTargets { beside, tree })
+        let more = b.linear.iter().any(|r| r.len() > 32);
+        Some(CullTargets { beside, tree, more })
     }
 
     /// What rays of `cone` may hit.
@@ -154,14 +160,19 @@ impl CullTargets {
         let mut c = Cull {
             beside: [u32::MAX; 3],
             tree: self.tree.is_some_and(|t| cone.may_meet_box(&t)),
+            nothing: false,
         };
+        let mut kept = 0;
         for (mask, balls) in c.beside.iter_mut().zip(&self.beside) {
             for (i, &(center, radius)) in balls.iter().enumerate() {
-                if !cone.may_meet(center, radius) {
+                if cone.may_meet(center, radius) {
+                    kept += 1;
+                } else {
                     *mask &= !(1 << i);
                 }
             }
         }
+        c.nothing = kept == 0 && !c.tree && !self.more;
         c
     }
 }

@@ -143,6 +143,12 @@ impl<L: Lane> RayPacket<L> {
         }
     }
 
+    /// What the packet's rays may hit (`with_cull`; `Cull::ALL` by default).
+    #[inline]
+    pub fn cull(&self) -> Cull {
+        self.cull
+    }
+
     /// This packet, its closest-hit traversal skipping what `cull` rules out. The
     /// caller vouches that none of the packet's rays can hit what is ruled out
     /// (`cull::Cone`).

@@ -41,7 +41,8 @@ pub struct RayCounts {
     pub secondary: u64,
     pub traversal: TraversalStats,
     /// Work skipped by specialisation: shadow rays not traced because their light sample
-    /// adds nothing whether lit or not, and packets answered by the scene-bounds test.
+    /// adds nothing whether lit or not, and packets answered at once (they miss the
+    /// scene's box, or their tile's camera cone meets nothing).
     pub shadow_culled: u64,
     pub packets_outside: u64,
     /// Camera rays' tests skipped by their tile's cone (`Tracer::camera_cull`):
@@ -147,7 +148,8 @@ pub struct Tracer<'a> {
     pub sampler: Sampler,
     /// Skip work that cannot change the image (`design.md` §6; `--no-specialize` turns
     /// it off): shadow rays of light samples that add nothing lit or not, and packets
-    /// that miss the scene's bounds. The image is the same bits either way.
+    /// that miss the scene's bounds, camera packets' tests their tile's cone rules out
+    /// (`camera_cull`). The image is the same bits either way.
     pub specialize: bool,
     /// The packet tracer's per-object tables (`packet::ShadeTables`).
     pub(crate) tables: packet::ShadeTables,
