@@ -120,6 +120,21 @@ impl Tracer<'_> {
         cull: Cull,
         counts: &mut RayCounts,
     ) -> [Vec3; MAX_WIDTH] {
+        if cull.nothing && self.scene.max_depth > 0 {
+            // No ray of the packet can hit anything: the background, as `shade_packet`
+            // gives a lane that misses, without making the rays.
+            counts.camera += active.count_ones() as u64;
+            counts.camera_packets.record(active);
+            counts.packets_outside += 1;
+            let background = Vec3::ONE * self.scene.background;
+            return std::array::from_fn(|k| {
+                if active >> k & 1 != 0 {
+                    background
+                } else {
+                    Vec3::ZERO
+                }
+            });
+        }
         let (fw, _) = footprint(L::WIDTH);
         let xs: [u32; MAX_WIDTH] = std::array::from_fn(|k| x0 + k as u32 % fw);
         let ys: [u32; MAX_WIDTH] = std::array::from_fn(|k| y0 + k as u32 / fw);
