@@ -143,12 +143,6 @@ impl<L: Lane> RayPacket<L> {
         }
     }
 
-    /// What the packet's rays may hit (`with_cull`; `Cull::ALL` by default).
-    #[inline]
-    pub fn cull(&self) -> Cull {
-        self.cull
-    }
-
     /// This packet, its closest-hit traversal skipping what `cull` rules out. The
     /// caller vouches that none of the packet's rays can hit what is ruled out
     /// (`cull::Cone`).
@@ -721,9 +715,9 @@ impl Bvh4 {
             best: [None; MAX_WIDTH],
         };
         for (k, kind) in KINDS.into_iter().enumerate() {
-            // (Only non-empty runs: an empty pool must not make the watertight lanes,
-            // `tris.get`.)
             let range = self.linear[k].clone();
+            // (Not for an empty range: an empty pool must not make the watertight
+            // lanes, `tris.get`.)
             if range.is_empty() {
                 continue;
             }

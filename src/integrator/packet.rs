@@ -197,11 +197,10 @@ impl Tracer<'_> {
         let weight = |c: Vec3| if camera { Vec3::ONE * c } else { c };
         let (origin, dir) = (packet.origin(), packet.dir());
         let hits = if self.specialize
-            && (packet.cull().nothing
-                || packet.hits_box(&scene.bounds, T_MIN, f32::INFINITY) & active == 0)
+            && packet.hits_box(&scene.bounds, T_MIN, f32::INFINITY) & active == 0
         {
-            // The whole packet misses the scene (its tile's cone meets nothing, or it
-            // misses the scene's box): background at once.
+            // The whole packet misses the scene: background at once. (A camera packet
+            // whose tile's cone meets nothing never gets here: `sample_packet`.)
             counts.packets_outside += 1;
             [None; MAX_WIDTH]
         } else {
