@@ -9,9 +9,9 @@
 //! second.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use raytracer::accel::{Accel, AccelKind};
 use raytracer::render::{render, RenderSettings};
-use raytracer::scene::{Overrides, Scene};
+
+mod common;
 
 fn bench_render(c: &mut Criterion) {
     let pool = rayon::ThreadPoolBuilder::new()
@@ -19,13 +19,7 @@ fn bench_render(c: &mut Criterion) {
         .build()
         .expect("a one-thread pool");
     for name in ["bunny", "bunny-closeup", "mixed"] {
-        let overrides = Overrides {
-            width: Some(400),
-            spp: Some(2),
-            max_depth: None,
-        };
-        let mut scene = Scene::load(name, overrides).expect("a built-in scene");
-        let accel = Accel::build(&mut scene, AccelKind::Bvh);
+        let (scene, accel) = common::small_scene(name);
         let variants = [
             ("scalar", 1, true),
             ("8-wide", 8, true),

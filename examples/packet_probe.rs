@@ -13,12 +13,12 @@
 #[path = "../benches/common/mod.rs"]
 mod common;
 
-use common::{camera_packets, flatten, in_lanes, shadow_packets, LanePacket, Packet};
+use common::{camera_packets, flatten, in_lanes, shadow_packets, small_scene, LanePacket, Packet};
 use raytracer::accel::packet::RayPacket;
-use raytracer::accel::{Accel, AccelKind, TraversalStats};
+use raytracer::accel::{Accel, TraversalStats};
 use raytracer::integrator::T_MIN;
 use raytracer::lanes::Lane;
-use raytracer::scene::{Overrides, Scene};
+use raytracer::scene::Scene;
 
 /// Closest hits (camera) or visible lanes (shadow) of every packet: the count of hits.
 /// Width 1 traces the packets' rays one at a time (flattening them is counted); the
@@ -68,13 +68,7 @@ fn main() {
         "shadow" => true,
         other => panic!("ray set `camera` or `shadow`, not `{other}`"),
     };
-    let overrides = Overrides {
-        width: Some(400),
-        spp: Some(2),
-        max_depth: None,
-    };
-    let mut scene = Scene::load(name, overrides).expect("a built-in scene");
-    let accel = Accel::build(&mut scene, AccelKind::Bvh);
+    let (scene, accel) = small_scene(name);
     // Width 1 traces the 8-wide packets' rays one at a time.
     let mut packets = camera_packets(&scene, if width == 4 { 4 } else { 8 });
     if shadow {

@@ -202,12 +202,12 @@ fn render_tile_packets<L: Lane>(
             let mut sums = [Vec3::ZERO; MAX_WIDTH];
             for s in 0..spp {
                 let c = tracer.sample_packet::<L>(px, py, active, s, cull, &mut counts);
-                counts.cone_prims += cone_prims * active.count_ones() as u64;
-                counts.cone_trees += cone_tree as u64;
                 for k in 0..L::WIDTH {
                     sums[k] += c[k];
                 }
             }
+            counts.cone_prims += cone_prims * active.count_ones() as u64 * spp as u64;
+            counts.cone_trees += cone_tree as u64 * spp as u64;
             for k in 0..L::WIDTH as u32 {
                 if active >> k & 1 != 0 {
                     let (x, y) = (px + k % fw, py + k / fw);

@@ -7,13 +7,26 @@
 #![allow(dead_code)]
 
 use raytracer::accel::packet::{RayPacket, MAX_WIDTH};
-use raytracer::accel::Accel;
+use raytracer::accel::{Accel, AccelKind};
 use raytracer::geometry::spawn::spawn_ray;
 use raytracer::geometry::Ray;
 use raytracer::integrator::{footprint, Tracer};
 use raytracer::lanes::{Lane, V3};
 use raytracer::rng::{slot, SampleKey};
-use raytracer::scene::Scene;
+use raytracer::scene::{Overrides, Scene};
+
+/// Built-in scene `name` at 400 px wide and 2 samples a pixel, with its BVH: the small
+/// size of `examples/packet_probe.rs` and `benches/render.rs`.
+pub fn small_scene(name: &str) -> (Scene, Accel) {
+    let overrides = Overrides {
+        width: Some(400),
+        spp: Some(2),
+        max_depth: None,
+    };
+    let mut scene = Scene::load(name, overrides).expect("a built-in scene");
+    let accel = Accel::build(&mut scene, AccelKind::Bvh);
+    (scene, accel)
+}
 
 /// The camera rays of `scene` one at a time, pixel by pixel with the `spp` samples of a
 /// pixel together (`benches/bvh.rs`'s order).

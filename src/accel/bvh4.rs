@@ -170,22 +170,9 @@ pub struct Bvh4 {
     /// gathered through `load4`'s short-tail path on every ray (the bunny scene's three
     /// spheres cost ~130 instructions a ray that way, callgrind).
     linear_spheres: Vec<SphereLanes>,
-    /// The boxes of the first 32 primitives of each kind beside the tree, and of the
-    /// tree's primitives (`Aabb::EMPTY` without a tree), each widened by `pad_box`: what
-    /// the camera's cones are tested against (`cull::CullTargets`).
-    pub beside_boxes: [Vec<Aabb>; 3],
+    /// The box of the tree's primitives (`Aabb::EMPTY` without a tree): what the
+    /// camera's cones test before the tree (`cull::CullTargets`).
     pub tree_box: Aabb,
-}
-
-/// `b` widened on every side by 1e-5 of its largest coordinate magnitude (and 1e-30):
-/// far above the rounding of a hit point (~1e-7 relative), so a ray that hits a
-/// primitive passes through its widened box.
-pub fn pad_box(b: Aabb) -> Aabb {
-    if !b.min.cmple(b.max).all() {
-        return Aabb::EMPTY;
-    }
-    let m = b.min.abs().max(b.max.abs()).max_element() * 1e-5 + 1e-30;
-    Aabb::new(b.min - Vec3::splat(m), b.max + Vec3::splat(m))
 }
 
 /// Four spheres, structure-of-arrays in `Vec4` lanes.
@@ -578,12 +565,10 @@ impl Bvh4 {
             depth: 0,
             leaves: 0,
             linear_spheres: Vec::new(),
-            beside_boxes: Default::default(),
-            tree_box: Aabb::EMPTY,
+            tree_box: tree
+                .as_ref()
+                .map_or(Aabb::EMPTY, |t| t.node(BuildTree::ROOT).bounds),
         };
-        bvh.tree_box = tree
-            .as_ref()
-            .map_or(Aabb::EMPTY, |t| pad_box(t.node(BuildTree::ROOT).bounds));
         // The collapse reads only the tree and `position`, so it runs beside the pool
         // reordering: on the 1.27M-triangle bunny each takes about 60 ms (mostly page
         // faults on their new arrays), a sixth of the whole build.
@@ -609,19 +594,6 @@ impl Bvh4 {
             },
         );
         bvh.linear_spheres = pack_spheres(&scene.spheres, bvh.linear[0].clone());
-        bvh.beside_boxes = std::array::from_fn(|k| {
-            bvh.linear[k]
-                .clone()
-                .take(32)
-                .map(|i| {
-                    pad_box(match k {
-                        0 => scene.spheres.bounds(i),
-                        1 => scene.quads.bounds(i),
-                        _ => scene.triangles.bounds(i),
-                    })
-                })
-                .collect()
-        });
         bvh
     }
 

@@ -107,15 +107,24 @@ impl Cone {
         beta <= self.angle + alpha + MARGIN
     }
 
-    /// `may_meet` for the ball around a box (centre and half-diagonal).
+    /// `may_meet` for the ball around a box (`ball`); an empty box meets nothing.
     pub fn may_meet_box(&self, b: &Aabb) -> bool {
-        let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
-        if !(lo.cmple(hi).all()) {
-            // An empty box holds nothing.
-            return false;
-        }
-        self.may_meet((lo + hi) * 0.5, (hi - lo).length() * 0.5 * (1.0 + 1e-9))
+        ball(b).is_some_and(|(center, radius)| self.may_meet(center, radius))
     }
+}
+
+/// The ball around `b` widened on every side by 1e-5 of its largest coordinate
+/// magnitude: centre and half-diagonal, in f64. The widening is far above the rounding
+/// of a hit point (~1e-7 relative), so a ray that hits a primitive in `b` meets the ball.
+/// `None` for an empty box.
+pub fn ball(b: &Aabb) -> Option<(DVec3, f64)> {
+    let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+    if !lo.cmple(hi).all() {
+        return None;
+    }
+    let pad = DVec3::splat(lo.abs().max(hi.abs()).max_element() * 1e-5 + 1e-30);
+    let (lo, hi) = (lo - pad, hi + pad);
+    Some(((lo + hi) * 0.5, (hi - lo).length() * 0.5 * (1.0 + 1e-9)))
 }
 
 /// The bounding balls the cull tests: those of the primitives beside the tree (by kind,
@@ -123,7 +132,8 @@ impl Cone {
 #[derive(Clone, Debug, Default)]
 pub struct CullTargets {
     beside: [Vec<(DVec3, f64)>; 3],
-    tree: Option<Aabb>,
+    /// `Aabb::EMPTY` without a tree (never met).
+    tree: Aabb,
     /// Some kind has more than 32 primitives beside the tree (those are always tested).
     more: bool,
 }
@@ -135,9 +145,13 @@ impl CullTargets {
         let Accel::Bvh(b) = accel else {
             return None;
         };
-        let ball = |a: &Aabb| {
-            let (lo, hi) = (a.min.as_dvec3(), a.max.as_dvec3());
-            ((lo + hi) * 0.5, (hi - lo).length() * 0.5)
+        // A box is never empty here (a zero-area primitive's is still a point); an empty
+        // one would get an infinite ball, never ruled out.
+        let balls = |range: std::ops::Range<usize>, bounds: fn(&Scene, usize) -> Aabb| {
+            range
+                .take(32)
+                .map(|i| ball(&bounds(scene, i)).unwrap_or((DVec3::ZERO, f64::INFINITY)))
+                .collect()
         };
         let s = &scene.spheres;
         let beside = [
@@ -147,10 +161,10 @@ impl CullTargets {
                 .take(32)
                 .map(|i| (s.center(i).as_dvec3(), s.radius[i].abs() as f64))
                 .collect(),
-            b.beside_boxes[1].iter().map(ball).collect(),
-            b.beside_boxes[2].iter().map(ball).collect(),
+            balls(b.linear[1].clone(), |s, i| s.quads.bounds(i)),
+            balls(b.linear[2].clone(), |s, i| s.triangles.bounds(i)),
         ];
-        let tree = b.root.map(|_| b.tree_box);
+        let tree = b.tree_box;
         let more = b.linear.iter().any(|r| r.len() > 32);
         Some(CullTargets { beside, tree, more })
     }
@@ -159,7 +173,7 @@ impl CullTargets {
     pub fn cull(&self, cone: &Cone) -> Cull {
         let mut c = Cull {
             beside: [u32::MAX; 3],
-            tree: self.tree.is_some_and(|t| cone.may_meet_box(&t)),
+            tree: cone.may_meet_box(&self.tree),
             nothing: false,
         };
         let mut kept = 0;
