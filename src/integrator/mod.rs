@@ -475,7 +475,7 @@ impl<'a> Tracer<'a> {
         mut sample: impl FnMut(usize, u32) -> Option<(Vec3, bool)>,
     ) -> Vec3 {
         let c = phong_lanes::<f32>(
-            &PhongLanes::from_fn(|_| m),
+            &PhongLanes::splat(m),
             self.scene,
             V3::splat(s.normal),
             V3::splat(-ray.dir),
@@ -667,32 +667,33 @@ pub struct PhongLanes<L> {
 }
 
 impl<L: Lane> PhongLanes<L> {
-    /// Lane i shades with `material(i)`. Lanes that all name one material (the same
-    /// reference) are splatted.
+    /// Every lane shades with `m`.
     #[inline]
-    pub fn from_fn<'m>(mut material: impl FnMut(usize) -> &'m Phong) -> Self {
-        let first = material(0);
-        let mut ms = [first; MAX_WIDTH];
-        let mut uniform = true;
-        for (i, m) in ms.iter_mut().enumerate().take(L::WIDTH).skip(1) {
-            *m = material(i);
-            uniform &= std::ptr::eq(*m, first);
-        }
-        if uniform {
-            return Self {
-                albedo: V3::splat(first.albedo),
-                ka: L::splat(first.ka),
-                kd: L::splat(first.kd),
-                ks: L::splat(first.ks),
-                shininess: [first.shininess; MAX_WIDTH],
-            };
-        }
+    pub fn splat(m: &Phong) -> Self {
         Self {
-            albedo: V3::from_fn(|i| ms[i].albedo),
-            ka: L::from_fn(|i| ms[i].ka),
-            kd: L::from_fn(|i| ms[i].kd),
-            ks: L::from_fn(|i| ms[i].ks),
-            shininess: ms.map(|m| m.shininess),
+            albedo: V3::splat(m.albedo),
+            ka: L::splat(m.ka),
+            kd: L::splat(m.kd),
+            ks: L::splat(m.ks),
+            shininess: [m.shininess; MAX_WIDTH],
+        }
+    }
+
+    /// Lane i shades with `table[index[i]]`. Lanes that all name one entry are
+    /// splatted (compared as integers: no lookup until the lanes differ).
+    #[inline]
+    pub fn from_indices(table: &[Phong], index: &[u32; MAX_WIDTH]) -> Self {
+        let first = index[0];
+        if index[..L::WIDTH].iter().all(|&i| i == first) {
+            return Self::splat(&table[first as usize]);
+        }
+        let m = |i: usize| &table[index[i] as usize];
+        Self {
+            albedo: V3::from_fn(|i| m(i).albedo),
+            ka: L::from_fn(|i| m(i).ka),
+            kd: L::from_fn(|i| m(i).kd),
+            ks: L::from_fn(|i| m(i).ks),
+            shininess: std::array::from_fn(|i| if i < L::WIDTH { m(i).shininess } else { 0.0 }),
         }
     }
 }

@@ -65,6 +65,8 @@ pub(crate) struct ShadeTables {
     mirror_index: Vec<f32>,
     /// Phong parameters by material index (default for the others).
     phong: Vec<Phong>,
+    /// The index into `phong` of the object's material (0 for entry 0).
+    phong_of: Vec<u32>,
 }
 
 impl ShadeTables {
@@ -74,6 +76,7 @@ impl ShadeTables {
             class: vec![MISS as u8; objects + 1],
             mirror_index: vec![0.0; objects + 1],
             phong: vec![Phong::default(); scene.materials.len().max(1)],
+            phong_of: vec![0; objects + 1],
         };
         for (i, m) in scene.materials.iter().enumerate() {
             if let Material::Phong(p) | Material::PhongMirror { phong: p, .. } = *m {
@@ -91,6 +94,7 @@ impl ShadeTables {
             };
             t.class[o + 1] = class as u8;
             t.mirror_index[o + 1] = index;
+            t.phong_of[o + 1] = mi;
         }
         t
     }
@@ -269,17 +273,16 @@ impl Tracer<'_> {
 
         // The lanes' Phong parameters. A lane that does not shade with Phong takes the
         // first Phong lane's material (its values are never read), so a packet on one
-        // material is recognised by `PhongLanes::from_fn` and splatted.
-        let first = slot[phong_lanes.trailing_zeros() as usize];
-        let materials = PhongLanes::<L>::from_fn(|k| {
-            let j = if phong_lanes >> k & 1 != 0 {
-                slot[k]
+        // material is recognised by `PhongLanes::from_indices` and splatted.
+        let first = t.phong_of[slot[phong_lanes.trailing_zeros() as usize]];
+        let index: [u32; MAX_WIDTH] = std::array::from_fn(|k| {
+            if phong_lanes >> k & 1 != 0 {
+                t.phong_of[slot[k]]
             } else {
                 first
-            };
-            // j ≥ 1: Phong lanes have a hit.
-            &t.phong[scene.object_material[j - 1] as usize]
+            }
         });
+        let materials = PhongLanes::<L>::from_indices(&t.phong, &index);
         let view = -dir;
         // Phong over the lanes, the same kernel as the scalar tracer's. As there, each
         // light sample's shadow rays are traced when the kernel asks for the sample: one
