@@ -283,12 +283,19 @@ impl<'a> Tracer<'a> {
             // Lanes of other kinds take the first sphere lane's sphere (replaced below).
             let i = own_or_first(&index, spheres);
             let pool = &scene.spheres;
-            let c = V3::new(
-                L::from_fn(|k| pool.cx[i[k]]),
-                L::from_fn(|k| pool.cy[i[k]]),
-                L::from_fn(|k| pool.cz[i[k]]),
-            );
-            let r = L::from_fn(|k| pool.radius[i[k]]);
+            // Most packets hit one sphere (a ground, a mirror): then no gathers.
+            let (c, r) = if i[..L::WIDTH].iter().all(|&j| j == i[0]) {
+                let j = i[0];
+                let c = Vec3::new(pool.cx[j], pool.cy[j], pool.cz[j]);
+                (V3::splat(c), L::splat(pool.radius[j]))
+            } else {
+                let c = V3::new(
+                    L::from_fn(|k| pool.cx[i[k]]),
+                    L::from_fn(|k| pool.cy[i[k]]),
+                    L::from_fn(|k| pool.cz[i[k]]),
+                );
+                (c, L::from_fn(|k| pool.radius[i[k]]))
+            };
             (point, error) = sphere_point_lanes(c, r, on_ray);
             outward = sphere_normal(c, r, point);
         }
