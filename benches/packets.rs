@@ -19,7 +19,7 @@ use raytracer::accel::packet::RayPacket;
 use raytracer::accel::{Accel, AccelKind, TraversalStats};
 use raytracer::geometry::Ray;
 use raytracer::integrator::T_MIN;
-use raytracer::lanes::Lane;
+use raytracer::lanes::{set_lanes, Lane};
 use raytracer::scene::{Overrides, Scene};
 use wide::f32x8;
 
@@ -32,10 +32,9 @@ fn closest_packets<L: Lane>(scene: &Scene, accel: &Accel, packets: &[LanePacket<
     for lp in packets {
         let p = RayPacket::<L>::from_lanes(lp.origin, lp.dir, lp.active);
         let hits = accel.closest_hit_packet(scene, &p, T_MIN, &mut stats);
-        for (k, h) in hits.iter().enumerate().take(L::WIDTH) {
-            if lp.active >> k & 1 != 0 {
-                out.push(h.map_or(u64::MAX, |h| (h.t.to_bits() as u64) << 32 | h.id as u64));
-            }
+        for k in set_lanes(lp.active) {
+            let h = hits.hit(k);
+            out.push(h.map_or(u64::MAX, |h| (h.t.to_bits() as u64) << 32 | h.id as u64));
         }
     }
     out

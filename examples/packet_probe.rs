@@ -53,7 +53,7 @@ fn trace_all<L: Lane>(
             v.count_ones() as u64
         } else {
             let h = accel.closest_hit_packet(scene, &p, T_MIN, stats);
-            h.iter().filter(|h| h.is_some()).count() as u64
+            (h.found & lp.active).count_ones() as u64
         };
     }
     hits

@@ -80,9 +80,7 @@ fn trace(scene: &Scene, accel: &Accel, set: &Set) -> u32 {
                     n += v.count_ones();
                 } else {
                     let hits = accel.closest_hit_packet(scene, &p, T_MIN, &mut stats);
-                    n += (0..8)
-                        .filter(|&k| lp.active >> k & 1 != 0 && hits[k].is_some())
-                        .count() as u32;
+                    n += (hits.found & lp.active).count_ones();
                 }
             }
         }

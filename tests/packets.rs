@@ -271,7 +271,9 @@ fn check_packet<L: Lane>(rays: &[Ray; MAX_WIDTH], active: u32) -> Result<(), Tes
     let (scene, accel) = mixed_scene();
     let mut s = TraversalStats::default();
     let p = RayPacket::<L>::new(rays, active);
-    let hits = accel.closest_hit_packet(scene, &p, T_MIN, &mut s);
+    let hits = accel
+        .closest_hit_packet(scene, &p, T_MIN, &mut s)
+        .to_array();
     for (light_index, light) in scene.lights.iter().enumerate() {
         let visible = accel.light_visible_packet(scene, &p, T_MIN, light, active, &mut s);
         for k in 0..L::WIDTH {

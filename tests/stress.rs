@@ -339,7 +339,9 @@ fn quad_rays(scene: &Scene, groups: &[Vec<(Vec3, Vec3)>], objects: &[u32], leaks
             })
         };
         let p8 = RayPacket::<f32x8>::new(&rays, active);
-        let hits8 = bvh.closest_hit_packet(&bvh_scene, &p8, T_MIN, &mut s);
+        let hits8 = bvh
+            .closest_hit_packet(&bvh_scene, &p8, T_MIN, &mut s)
+            .to_array();
         let mut hits4 = [None; MAX_WIDTH];
         for half in 0..2 {
             let lanes = (active >> (4 * half)) & 0xf;
@@ -349,7 +351,9 @@ fn quad_rays(scene: &Scene, groups: &[Vec<(Vec3, Vec3)>], objects: &[u32], leaks
             let mut r = rays;
             r.copy_within(4 * half..4 * half + 4, 0);
             let p4 = RayPacket::<glam::Vec4>::new(&r, lanes);
-            let h = bvh.closest_hit_packet(&bvh_scene, &p4, T_MIN, &mut s);
+            let h = bvh
+                .closest_hit_packet(&bvh_scene, &p4, T_MIN, &mut s)
+                .to_array();
             hits4[4 * half..4 * half + 4].copy_from_slice(&h[..4]);
         }
         // Shadow rays towards a light far beyond the target, of no object in the scene.

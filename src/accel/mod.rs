@@ -18,7 +18,7 @@ use crate::lanes::{set_lanes, Lane};
 use crate::scene::{Light, LightShape, Scene};
 use bvh4::Bvh4;
 use linear::{LinearScan, PrimRay};
-use packet::{RayPacket, MAX_WIDTH};
+use packet::{PacketHits, RayPacket, MAX_WIDTH};
 
 /// The `--accel` choice.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
@@ -166,15 +166,16 @@ impl Accel {
         p: &RayPacket<L>,
         t_min: f32,
         stats: &mut TraversalStats,
-    ) -> [Option<Hit>; MAX_WIDTH] {
+    ) -> PacketHits<L> {
         match self {
-            Accel::Linear(l) => std::array::from_fn(|k| {
-                if p.active >> k & 1 != 0 {
-                    l.closest_hit(scene, &p.ray(k), t_min, f32::INFINITY, stats)
-                } else {
-                    None
+            Accel::Linear(l) => {
+                let mut hits = PacketHits::none(p.active);
+                for k in set_lanes(p.active) {
+                    let hit = l.closest_hit(scene, &p.ray(k), t_min, f32::INFINITY, stats);
+                    hits.set(k, hit.map_or(f32::INFINITY, |h| h.t), hit);
                 }
-            }),
+                hits
+            }
             Accel::Bvh(b) => b.closest_hit_packet(scene, p, t_min, stats),
         }
     }

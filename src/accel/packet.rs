@@ -20,7 +20,7 @@ use crate::geometry::sphere::sphere_distance;
 use crate::geometry::triangle::{
     edge_functions, inside_edges, shear, watertight_distance, Columns, TrianglePool, WatertightRay,
 };
-use crate::geometry::{beats, keep_closest, Aabb, Hit, PrimKind, Ray};
+use crate::geometry::{beats, Aabb, Hit, PrimKind, Ray};
 use crate::lanes::{set_lanes, Lane, Mask, V3};
 use crate::scene::{LightShape, Scene};
 use std::cell::OnceCell;
@@ -417,13 +417,11 @@ impl<L: Lane> RayPacket<L> {
         kind: PrimKind,
         i: usize,
         t_min: f32,
-        t_max: &[f32; MAX_WIDTH],
+        t_max_l: L,
         lanes: u32,
         tri: Option<&TriangleLanes<L>>,
-    ) -> ([f32; MAX_WIDTH], u32) {
+    ) -> (L, u32) {
         let t_min_l = L::splat(t_min);
-        let t_max_l = L::from_fn(|k| t_max[k]);
-        let mut out = [0.0; MAX_WIDTH];
         let (t, mut bits, mut redo) = match kind {
             PrimKind::Sphere => {
                 let s = &scene.spheres;
@@ -447,7 +445,7 @@ impl<L: Lane> RayPacket<L> {
                     let (t, hit, exact_zero) =
                         self.quad(tri, &qs.vertices[i], plane, window, lanes);
                     if hit | exact_zero == 0 {
-                        return ([0.0; MAX_WIDTH], 0);
+                        return (L::splat(0.0), 0);
                     }
                     (t, hit, exact_zero)
                 }
@@ -474,7 +472,7 @@ impl<L: Lane> RayPacket<L> {
                     let exact_zero = (u.eq(zero) | v.eq(zero) | w.eq(zero)).bits();
                     if (inside_edges([u, v, w]).bits() | exact_zero) & lanes == 0 {
                         // No lane inside the edges: no distance (and no division) needed.
-                        return ([0.0; MAX_WIDTH], 0);
+                        return (L::splat(0.0), 0);
                     }
                     let (t, hit) =
                         watertight_distance([u, v, w], a, b, c, tri.sz, t_min_l, t_max_l);
@@ -485,46 +483,45 @@ impl<L: Lane> RayPacket<L> {
         };
         bits &= lanes;
         redo &= lanes;
-        for (k, o) in out.iter_mut().enumerate().take(L::WIDTH) {
-            *o = t.lane(k);
-        }
         if redo != 0 {
-            bits |= self.redo_lanes(scene, kind, i, t_min, t_max, redo, &mut out);
+            let (t_redo, hit) = self.redo_lanes(scene, kind, i, t_min, t_max_l, redo);
+            bits |= hit;
+            return (L::select(L::Mask::from_bits(hit), t_redo, t), bits);
         }
-        (out, bits)
+        (t, bits)
     }
 
     /// The lanes `redo` of `test_prim` (a triangle or quad), one at a time with the scalar
-    /// test: the lanes that hit, their distances written to `out`. Out of line: rare, and
-    /// with the two scalar tests inlined the packet loops around `test_prim` cost 2.0%
-    /// more render instructions on `bunny` and 1.8% on `cornell` (8 wide, callgrind).
+    /// test: the distances (in the lanes that hit) and the lanes that hit. Out of line:
+    /// rare, and with the two scalar tests inlined the packet loops around `test_prim`
+    /// cost 2.0% more render instructions on `bunny` and 1.8% on `cornell` (8 wide,
+    /// callgrind).
     #[cold]
     #[inline(never)]
-    #[allow(clippy::too_many_arguments)]
     fn redo_lanes(
         &self,
         scene: &Scene,
         kind: PrimKind,
         i: usize,
         t_min: f32,
-        t_max: &[f32; MAX_WIDTH],
+        t_max: L,
         redo: u32,
-        out: &mut [f32; MAX_WIDTH],
-    ) -> u32 {
+    ) -> (L, u32) {
+        let mut out = [0.0; MAX_WIDTH];
         let mut bits = 0;
         for k in set_lanes(redo) {
             let ray = self.ray(k);
             let w = WatertightRay::new(&ray);
             let hit = match kind {
-                PrimKind::Quad => scene.quads.intersect(i, &ray, &w, t_min, t_max[k]),
-                _ => scene.triangles.intersect(i, &w, t_min, t_max[k]),
+                PrimKind::Quad => scene.quads.intersect(i, &ray, &w, t_min, t_max.lane(k)),
+                _ => scene.triangles.intersect(i, &w, t_min, t_max.lane(k)),
             };
             if let Some(tk) = hit {
                 out[k] = tk;
                 bits |= 1 << k;
             }
         }
-        bits
+        (L::from_fn(|k| out[k]), bits)
     }
 }
 
@@ -639,18 +636,124 @@ fn ids(scene: &Scene, kind: PrimKind, i: usize) -> (u32, u32) {
 
 const KINDS: [PrimKind; 3] = [PrimKind::Sphere, PrimKind::Quad, PrimKind::Triangle];
 
-/// Closest-hit state of a packet: the lanes' distance bounds (as an array and as lanes,
-/// kept equal) and best hits.
-struct Closest<L> {
-    t_max: [f32; MAX_WIDTH],
-    t_max_lanes: L,
-    best: [Option<Hit>; MAX_WIDTH],
+/// The closest hits of a packet's lanes (`closest_hit_packet`), all in lanes: while
+/// traversing, a winning primitive costs four selects, not a loop over its lanes.
+#[derive(Clone, Copy, Debug)]
+pub struct PacketHits<L> {
+    /// The lanes with a hit.
+    pub found: u32,
+    /// The lanes' hit distance (during traversal, the best so far): +∞ without a hit,
+    /// −∞ for lanes not traced.
+    pub t: L,
+    /// The lanes' primitive (`prim_code`), its id and its object, each in the bits of
+    /// an f32. Only moved by splats and selects, never computed with, so the bits stay
+    /// as written.
+    prim: L,
+    id: L,
+    object: L,
 }
 
-impl<L: Lane> Closest<L> {
+/// A primitive as 32 bits: the kind in the top two, the pool index below.
+#[inline(always)]
+fn prim_code(kind: PrimKind, i: usize) -> u32 {
+    debug_assert!(i < 1 << 30);
+    let k = match kind {
+        PrimKind::Sphere => 0,
+        PrimKind::Quad => 1,
+        PrimKind::Triangle => 2,
+    };
+    k << 30 | i as u32
+}
+
+#[inline(always)]
+fn decode_prim(code: u32) -> (PrimKind, usize) {
+    let kind = match code >> 30 {
+        0 => PrimKind::Sphere,
+        1 => PrimKind::Quad,
+        _ => PrimKind::Triangle,
+    };
+    (kind, (code & ((1 << 30) - 1)) as usize)
+}
+
+impl<L: Lane> PacketHits<L> {
+    /// No hits: the lanes of `active` at +∞, the others at −∞.
     #[inline(always)]
-    fn sync(&mut self) {
-        self.t_max_lanes = L::from_fn(|k| self.t_max[k]);
+    pub fn none(active: u32) -> Self {
+        Self {
+            found: 0,
+            t: L::select(
+                L::Mask::from_bits(active),
+                L::splat(f32::INFINITY),
+                L::splat(f32::NEG_INFINITY),
+            ),
+            prim: L::splat(0.0),
+            id: L::splat(0.0),
+            object: L::splat(0.0),
+        }
+    }
+
+    /// Lane `k`'s hit.
+    #[inline(always)]
+    pub fn hit(&self, k: usize) -> Option<Hit> {
+        if self.found >> k & 1 == 0 {
+            return None;
+        }
+        let (kind, index) = decode_prim(self.prim.lane(k).to_bits());
+        Some(Hit {
+            t: self.t.lane(k),
+            id: self.id.lane(k).to_bits(),
+            kind,
+            index: index as u32,
+            object: self.object.lane(k).to_bits(),
+        })
+    }
+
+    /// Every lane's hit, as `closest_hit` gives it.
+    #[inline(always)]
+    pub fn to_array(&self) -> [Option<Hit>; MAX_WIDTH] {
+        let mut out = [None; MAX_WIDTH];
+        for k in set_lanes(self.found) {
+            out[k] = self.hit(k);
+        }
+        out
+    }
+
+    /// The lanes' objects (meaningful in the lanes of `found`).
+    #[inline(always)]
+    pub fn objects(&self) -> [u32; MAX_WIDTH] {
+        std::array::from_fn(|k| {
+            if k < L::WIDTH {
+                self.object.lane(k).to_bits()
+            } else {
+                0
+            }
+        })
+    }
+
+    /// The lanes' primitives, kind and pool index (meaningful in the lanes of `found`).
+    #[inline(always)]
+    pub fn prims(&self) -> [(PrimKind, usize); MAX_WIDTH] {
+        std::array::from_fn(|k| {
+            decode_prim(if k < L::WIDTH {
+                self.prim.lane(k).to_bits()
+            } else {
+                0
+            })
+        })
+    }
+
+    /// Lane `k` takes distance bound `t` and best hit `best` (from the scalar traversal).
+    #[inline(always)]
+    pub fn set(&mut self, k: usize, t: f32, best: Option<Hit>) {
+        let m = L::Mask::from_bits(1 << k);
+        self.t = L::select(m, L::splat(t), self.t);
+        if let Some(h) = best {
+            let code = prim_code(h.kind, h.index as usize);
+            self.prim = L::select(m, L::splat(f32::from_bits(code)), self.prim);
+            self.id = L::select(m, L::splat(f32::from_bits(h.id)), self.id);
+            self.object = L::select(m, L::splat(f32::from_bits(h.object)), self.object);
+            self.found |= 1 << k;
+        }
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -665,28 +768,28 @@ impl<L: Lane> Closest<L> {
         lanes: u32,
         tri: Option<&TriangleLanes<L>>,
     ) {
-        let mut any = false;
         for i in range {
-            let (t, bits) = p.test_prim(scene, kind, i, t_min, &self.t_max, lanes, tri);
+            let (t, bits) = p.test_prim(scene, kind, i, t_min, self.t, lanes, tri);
             if bits == 0 {
                 continue;
             }
-            any = true;
+            // A hit lane has t ≤ t_max: the nearer wins (`beats`); at an equal distance
+            // to a hit already found, the smaller id.
             let (id, object) = ids(scene, kind, i);
-            for k in set_lanes(bits) {
-                let hit = Hit {
-                    t: t[k],
-                    id,
-                    kind,
-                    index: i as u32,
-                    object,
-                };
-                keep_closest(&mut self.best[k], hit);
-                self.t_max[k] = t[k];
+            let mut win = bits;
+            let tie = t.eq(self.t).bits() & bits & self.found;
+            for k in set_lanes(tie) {
+                if !beats((t.lane(k), id), (t.lane(k), self.id.lane(k).to_bits())) {
+                    win &= !(1 << k);
+                }
             }
-        }
-        if any {
-            self.sync();
+            let m = L::Mask::from_bits(win);
+            let bits_of = |x: u32| L::splat(f32::from_bits(x));
+            self.t = L::select(m, t, self.t);
+            self.prim = L::select(m, bits_of(prim_code(kind, i)), self.prim);
+            self.id = L::select(m, bits_of(id), self.id);
+            self.object = L::select(m, bits_of(object), self.object);
+            self.found |= win;
         }
     }
 }
@@ -700,20 +803,9 @@ impl Bvh4 {
         p: &RayPacket<L>,
         t_min: f32,
         stats: &mut TraversalStats,
-    ) -> [Option<Hit>; MAX_WIDTH] {
-        let t_max = std::array::from_fn(|k| {
-            if p.active >> k & 1 != 0 {
-                f32::INFINITY
-            } else {
-                f32::NEG_INFINITY
-            }
-        });
+    ) -> PacketHits<L> {
         let tris = LazyTriangles::new(p, scene);
-        let mut st = Closest {
-            t_max,
-            t_max_lanes: L::from_fn(|k| t_max[k]),
-            best: [None; MAX_WIDTH],
-        };
+        let mut st = PacketHits::none(p.active);
         for (k, kind) in KINDS.into_iter().enumerate() {
             let range = self.linear[k].clone();
             // (Not for an empty range: an empty pool must not make the watertight
@@ -743,10 +835,10 @@ impl Bvh4 {
             }
         }
         let Some(root) = self.root else {
-            return st.best;
+            return st;
         };
         if !p.cull.tree {
-            return st.best;
+            return st;
         }
         let fallback = RayPacket::<L>::fallback();
         let mut stack = [MaybeUninit::<(u32, u32, f32)>::uninit(); STACK_SIZE];
@@ -755,7 +847,7 @@ impl Bvh4 {
         // is visited next without a trip through the stack (most nodes of a coherent
         // packet have one); the others are pushed, farthest first.
         let mut code = root;
-        let mut lanes = st.t_max_lanes.ge(L::splat(t_min)).bits() & p.active;
+        let mut lanes = st.t.ge(L::splat(t_min)).bits() & p.active;
         loop {
             if lanes != 0 && code & LEAF != 0 {
                 let (kind, start, count) = decode_leaf(code);
@@ -774,11 +866,7 @@ impl Bvh4 {
                 stats.packet_nodes += 1;
                 stats.packet_lanes += lanes.count_ones() as u64;
                 let node = &self.nodes[code as usize];
-                let t_max = L::select(
-                    L::Mask::from_bits(lanes),
-                    st.t_max_lanes,
-                    L::splat(f32::NEG_INFINITY),
-                );
+                let t_max = L::select(L::Mask::from_bits(lanes), st.t, L::splat(f32::NEG_INFINITY));
                 // All four boxes first, with no branch between them (an empty slot's box
                 // is inverted and never hit): which children a packet enters is a coin
                 // toss for the branch predictor, so it is asked once, as a 4-bit mask.
@@ -801,16 +889,12 @@ impl Bvh4 {
                     if bits.count_ones() <= fallback {
                         for k in set_lanes(bits) {
                             let (pray, bray) = p.scalar(k);
+                            let mut t_max = st.t.lane(k);
+                            let mut best = st.hit(k);
                             self.closest_hit_from(
-                                scene,
-                                child,
-                                &pray,
-                                &bray,
-                                t_min,
-                                &mut st.t_max[k],
-                                &mut st.best[k],
-                                stats,
+                                scene, child, &pray, &bray, t_min, &mut t_max, &mut best, stats,
                             );
+                            st.set(k, t_max, best);
                         }
                         finished_alone = true;
                         continue;
@@ -826,9 +910,6 @@ impl Bvh4 {
                     hits[j] = (child, bits, d);
                     n += 1;
                 }
-                if finished_alone {
-                    st.sync();
-                }
                 if n > 0 {
                     for h in &hits[..n - 1] {
                         stack[sp].write(*h);
@@ -838,7 +919,7 @@ impl Bvh4 {
                     code = child;
                     // The lanes' `t_max` can have changed only if some were finished alone.
                     lanes = if finished_alone {
-                        st.t_max_lanes.ge(L::splat(d)).bits() & bits
+                        st.t.ge(L::splat(d)).bits() & bits
                     } else {
                         bits
                     };
@@ -854,9 +935,9 @@ impl Bvh4 {
             // SAFETY: slot `sp` < the highest `sp` reached, all of which were written.
             let (next, next_lanes, enter) = unsafe { stack[sp].assume_init() };
             code = next;
-            lanes = st.t_max_lanes.ge(L::splat(enter)).bits() & next_lanes;
+            lanes = st.t.ge(L::splat(enter)).bits() & next_lanes;
         }
-        st.best
+        st
     }
 
     /// Shadow rays: the lanes of `lanes` for which a primitive of another object than
@@ -902,6 +983,7 @@ impl Bvh4 {
                     t_max: &[f32; MAX_WIDTH]|
          -> u32 {
             let mut found = 0;
+            let t_max_l = L::from_fn(|k| t_max[k]);
             // Primitives of the object's own kind are skipped before their test (the
             // light's quads are dear to test); the others cannot be the object's, and
             // their ids are looked up only when some lane hits them.
@@ -910,8 +992,15 @@ impl Bvh4 {
                 if check_first && ids(scene, kind, i).1 == object {
                     continue;
                 }
-                let (t, bits) =
-                    p.test_prim(scene, kind, i, t_min, t_max, lanes & !found, tris.get(kind));
+                let (t, bits) = p.test_prim(
+                    scene,
+                    kind,
+                    i,
+                    t_min,
+                    t_max_l,
+                    lanes & !found,
+                    tris.get(kind),
+                );
                 if bits == 0 {
                     continue;
                 }
@@ -920,7 +1009,7 @@ impl Bvh4 {
                     continue;
                 }
                 for k in set_lanes(bits) {
-                    if t[k] < t_light[k] || id < id_light[k] {
+                    if beats((t.lane(k), id), (t_light[k], id_light[k])) {
                         found |= 1 << k;
                     }
                 }

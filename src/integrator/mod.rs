@@ -11,7 +11,7 @@ mod packet;
 pub use packet::footprint;
 
 use crate::accel::cull::{Cone, Cull, CullTargets};
-use crate::accel::packet::MAX_WIDTH;
+use crate::accel::packet::{PacketHits, MAX_WIDTH};
 use crate::accel::{Accel, TraversalStats};
 use crate::geometry::spawn::{
     planar_point, planar_point_lanes, spawn_ray, sphere_point, sphere_point_lanes, ErrorPoint,
@@ -259,24 +259,25 @@ impl<'a> Tracer<'a> {
         &self,
         origin: V3<L>,
         dir: V3<L>,
-        hits: &[Option<Hit>; MAX_WIDTH],
+        hits: &PacketHits<L>,
         lanes: u32,
     ) -> SurfaceLanes<L> {
         let scene = self.scene;
-        let mut t = [0.0; MAX_WIDTH];
+        assert!(lanes & !hits.found == 0, "a shaded lane has a hit");
         let (mut spheres, mut triangles) = (0u32, 0u32);
         let mut index = [0usize; MAX_WIDTH];
+        let prims = hits.prims();
         for k in set_lanes(lanes) {
-            let hit = hits[k].as_ref().expect("a shaded lane has a hit");
-            t[k] = hit.t;
-            index[k] = hit.index as usize;
-            match hit.kind {
+            let (kind, i) = prims[k];
+            index[k] = i;
+            match kind {
                 PrimKind::Sphere => spheres |= 1 << k,
                 PrimKind::Triangle => triangles |= 1 << k,
                 PrimKind::Quad => {}
             }
         }
-        let on_ray = origin + dir.scale(L::from_fn(|k| t[k]));
+        let t = L::select(L::Mask::from_bits(lanes), hits.t, L::splat(0.0));
+        let on_ray = origin + dir.scale(t);
         let zero = V3::splat(Vec3::ZERO);
         let (mut point, mut error, mut outward) = (zero, zero, zero);
         if spheres != 0 {
@@ -325,8 +326,8 @@ impl<'a> Tracer<'a> {
             }; MAX_WIDTH];
             let mut n = [Vec3::ZERO; MAX_WIDTH];
             for k in set_lanes(others) {
-                let hit = hits[k].as_ref().expect("a shaded lane has a hit");
-                (p[k], n[k]) = self.point_and_outward(hit, on_ray.lane(k));
+                let hit = hits.hit(k).expect("a shaded lane has a hit");
+                (p[k], n[k]) = self.point_and_outward(&hit, on_ray.lane(k));
             }
             let m = L::Mask::from_bits(others);
             point = V3::select(m, V3::from_fn(|k| p[k].point), point);

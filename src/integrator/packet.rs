@@ -17,7 +17,7 @@ use super::{
     RayCounts, Tracer, T_MIN,
 };
 use crate::accel::cull::Cull;
-use crate::accel::packet::{RayPacket, MAX_WIDTH};
+use crate::accel::packet::{PacketHits, RayPacket, MAX_WIDTH};
 use crate::geometry::spawn::{spawn_origin, spawn_ray};
 use crate::geometry::Ray;
 use crate::lanes::V3;
@@ -206,7 +206,7 @@ impl Tracer<'_> {
             // The whole packet misses the scene: background at once. (A camera packet
             // whose tile's cone meets nothing never gets here: `sample_packet`.)
             counts.packets_outside += 1;
-            [None; MAX_WIDTH]
+            PacketHits::none(active)
         } else {
             self.accel
                 .closest_hit_packet(scene, &packet, T_MIN, &mut counts.traversal)
@@ -214,9 +214,14 @@ impl Tracer<'_> {
         // The lanes by how their hit is shaded, from the per-object tables: a lane's
         // material is a coin toss for the branch predictor, so no branch on it here.
         let t = &self.tables;
-        let slot: [usize; MAX_WIDTH] = std::array::from_fn(|k| match hits[k] {
-            Some(h) if active >> k & 1 != 0 => h.object as usize + 1,
-            _ => 0,
+        let objects = hits.objects();
+        let found = hits.found & active;
+        let slot: [usize; MAX_WIDTH] = std::array::from_fn(|k| {
+            if found >> k & 1 != 0 {
+                objects[k] as usize + 1
+            } else {
+                0
+            }
         });
         let by_class = lanes_by_class(std::array::from_fn(|k| {
             if k < L::WIDTH {
@@ -253,7 +258,7 @@ impl Tracer<'_> {
         let s = self.surface_lanes::<L>(origin, dir, &hits, phong_lanes | path_lanes);
         for k in set_lanes(path_lanes) {
             // A path-traced bounce: on alone, one ray at a time.
-            let hit = hits[k].expect("a path-traced lane has a hit");
+            let hit = hits.hit(k).expect("a path-traced lane has a hit");
             let material = scene.material_of(hit.object);
             let surface = s.lane(k, hit.object);
             let ray = Ray::new(origin.lane(k), dir.lane(k));
