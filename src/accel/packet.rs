@@ -970,20 +970,11 @@ impl Bvh4 {
                 LightShape::Triangles(_) => PrimKind::Triangle,
             });
         // Lanes not tested get t_max = −∞ (no box or primitive test passes).
-        let mut t_max: [f32; MAX_WIDTH] = std::array::from_fn(|k| {
-            if remaining >> k & 1 != 0 {
-                t_light[k]
-            } else {
-                f32::NEG_INFINITY
-            }
-        });
-        let leaf = |kind: PrimKind,
-                    range: std::ops::Range<usize>,
-                    lanes: u32,
-                    t_max: &[f32; MAX_WIDTH]|
-         -> u32 {
+        let minus_inf = L::splat(f32::NEG_INFINITY);
+        let only = |lanes: u32, t: L| L::select(L::Mask::from_bits(lanes), t, minus_inf);
+        let mut t_max = only(remaining, L::from_fn(|k| t_light[k]));
+        let leaf = |kind: PrimKind, range: std::ops::Range<usize>, lanes: u32, t_max: L| -> u32 {
             let mut found = 0;
-            let t_max_l = L::from_fn(|k| t_max[k]);
             // Primitives of the object's own kind are skipped before their test (the
             // light's quads are dear to test); the others cannot be the object's, and
             // their ids are looked up only when some lane hits them.
@@ -992,15 +983,8 @@ impl Bvh4 {
                 if check_first && ids(scene, kind, i).1 == object {
                     continue;
                 }
-                let (t, bits) = p.test_prim(
-                    scene,
-                    kind,
-                    i,
-                    t_min,
-                    t_max_l,
-                    lanes & !found,
-                    tris.get(kind),
-                );
+                let (t, bits) =
+                    p.test_prim(scene, kind, i, t_min, t_max, lanes & !found, tris.get(kind));
                 if bits == 0 {
                     continue;
                 }
@@ -1023,7 +1007,7 @@ impl Bvh4 {
             let range = self.linear[k].clone();
             if !range.is_empty() && remaining != 0 {
                 stats.prims += (range.len() * remaining.count_ones() as usize) as u64;
-                let found = leaf(kind, range, remaining, &t_max);
+                let found = leaf(kind, range, remaining, t_max);
                 occluded |= found;
                 remaining &= !found;
             }
@@ -1034,11 +1018,7 @@ impl Bvh4 {
         if remaining == 0 {
             return occluded;
         }
-        for (k, t) in t_max.iter_mut().enumerate() {
-            if remaining >> k & 1 == 0 {
-                *t = f32::NEG_INFINITY;
-            }
-        }
+        t_max = only(remaining, t_max);
         let fallback = RayPacket::<L>::fallback();
         let mut stack = [MaybeUninit::<(u32, u32)>::uninit(); STACK_SIZE];
         stack[0].write((root, remaining));
@@ -1055,24 +1035,13 @@ impl Bvh4 {
             if code & LEAF != 0 {
                 let (kind, start, count) = decode_leaf(code);
                 stats.prims += (count * lanes.count_ones()) as u64;
-                found = leaf(
-                    kind,
-                    start as usize..(start + count) as usize,
-                    lanes,
-                    &t_max,
-                );
+                found = leaf(kind, start as usize..(start + count) as usize, lanes, t_max);
             } else {
                 stats.nodes += 1;
                 stats.packet_nodes += 1;
                 stats.packet_lanes += lanes.count_ones() as u64;
                 let node = &self.nodes[code as usize];
-                let t_max_l = L::from_fn(|k| {
-                    if lanes >> k & 1 != 0 {
-                        t_max[k]
-                    } else {
-                        f32::NEG_INFINITY
-                    }
-                });
+                let t_max_l = only(lanes, t_max);
                 // As in `closest_hit_packet`: the four boxes, then one mask.
                 let t_min_l = L::splat(t_min);
                 let tested: [u32; 4] =
@@ -1114,11 +1083,7 @@ impl Bvh4 {
             if found != 0 {
                 occluded |= found;
                 remaining &= !found;
-                for (k, t) in t_max.iter_mut().enumerate() {
-                    if found >> k & 1 != 0 {
-                        *t = f32::NEG_INFINITY;
-                    }
-                }
+                t_max = only(remaining, t_max);
             }
         }
         occluded
