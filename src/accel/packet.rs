@@ -651,18 +651,24 @@ pub struct PacketHits<L> {
     prim: L,
     id: L,
     object: L,
+    /// The lanes whose hit is a sphere, a quad, a triangle (`kind_slot`).
+    kinds: [u32; 3],
+}
+
+#[inline(always)]
+fn kind_slot(kind: PrimKind) -> usize {
+    match kind {
+        PrimKind::Sphere => 0,
+        PrimKind::Quad => 1,
+        PrimKind::Triangle => 2,
+    }
 }
 
 /// A primitive as 32 bits: the kind in the top two, the pool index below.
 #[inline(always)]
 fn prim_code(kind: PrimKind, i: usize) -> u32 {
     debug_assert!(i < 1 << 30);
-    let k = match kind {
-        PrimKind::Sphere => 0,
-        PrimKind::Quad => 1,
-        PrimKind::Triangle => 2,
-    };
-    k << 30 | i as u32
+    (kind_slot(kind) as u32) << 30 | i as u32
 }
 
 #[inline(always)]
@@ -689,6 +695,7 @@ impl<L: Lane> PacketHits<L> {
             prim: L::splat(0.0),
             id: L::splat(0.0),
             object: L::splat(0.0),
+            kinds: [0; 3],
         }
     }
 
@@ -730,16 +737,35 @@ impl<L: Lane> PacketHits<L> {
         })
     }
 
-    /// The lanes' primitives, kind and pool index (meaningful in the lanes of `found`).
+    /// The lanes whose hit is of `kind`.
     #[inline(always)]
-    pub fn prims(&self) -> [(PrimKind, usize); MAX_WIDTH] {
+    pub fn of_kind(&self, kind: PrimKind) -> u32 {
+        self.kinds[kind_slot(kind)]
+    }
+
+    /// The lanes' primitives' indices in their kind's pool (meaningful in the lanes of
+    /// `found`).
+    #[inline(always)]
+    pub fn indices(&self) -> [usize; MAX_WIDTH] {
         std::array::from_fn(|k| {
-            decode_prim(if k < L::WIDTH {
-                self.prim.lane(k).to_bits()
+            if k < L::WIDTH {
+                decode_prim(self.prim.lane(k).to_bits()).1
             } else {
                 0
-            })
+            }
         })
+    }
+
+    /// The lanes of `lanes` now hit a primitive of `kind`.
+    #[inline(always)]
+    fn set_kind(&mut self, kind: PrimKind, lanes: u32) {
+        for (slot, m) in self.kinds.iter_mut().enumerate() {
+            *m = if slot == kind_slot(kind) {
+                *m | lanes
+            } else {
+                *m & !lanes
+            };
+        }
     }
 
     /// Lane `k` takes distance bound `t` and best hit `best` (from the scalar traversal).
@@ -753,6 +779,7 @@ impl<L: Lane> PacketHits<L> {
             self.id = L::select(m, L::splat(f32::from_bits(h.id)), self.id);
             self.object = L::select(m, L::splat(f32::from_bits(h.object)), self.object);
             self.found |= 1 << k;
+            self.set_kind(h.kind, 1 << k);
         }
     }
 
@@ -790,6 +817,7 @@ impl<L: Lane> PacketHits<L> {
             self.id = L::select(m, bits_of(id), self.id);
             self.object = L::select(m, bits_of(object), self.object);
             self.found |= win;
+            self.set_kind(kind, win);
         }
     }
 }

@@ -264,18 +264,9 @@ impl<'a> Tracer<'a> {
     ) -> SurfaceLanes<L> {
         let scene = self.scene;
         assert!(lanes & !hits.found == 0, "a shaded lane has a hit");
-        let (mut spheres, mut triangles) = (0u32, 0u32);
-        let mut index = [0usize; MAX_WIDTH];
-        let prims = hits.prims();
-        for k in set_lanes(lanes) {
-            let (kind, i) = prims[k];
-            index[k] = i;
-            match kind {
-                PrimKind::Sphere => spheres |= 1 << k,
-                PrimKind::Triangle => triangles |= 1 << k,
-                PrimKind::Quad => {}
-            }
-        }
+        let spheres = hits.of_kind(PrimKind::Sphere) & lanes;
+        let triangles = hits.of_kind(PrimKind::Triangle) & lanes;
+        let index = hits.indices();
         let t = L::select(L::Mask::from_bits(lanes), hits.t, L::splat(0.0));
         let on_ray = origin + dir.scale(t);
         let zero = V3::splat(Vec3::ZERO);
