@@ -9,8 +9,8 @@ use proptest::prelude::*;
 use raytracer::accel::packet::{RayPacket, MAX_WIDTH};
 use raytracer::accel::{Accel, AccelKind, TraversalStats};
 use raytracer::geometry::{Hit, Ray};
-use raytracer::integrator::RayCounts;
 use raytracer::integrator::T_MIN;
+use raytracer::integrator::{RayCounts, Tracer};
 use raytracer::lanes::Lane;
 use raytracer::render::{render, RenderSettings};
 use raytracer::rng::SamplerKind;
@@ -104,6 +104,21 @@ fn specialisation_skips_work_and_keeps_the_bits() {
         );
         if name.starts_with("cornell") || *name == "quads" {
             assert!(c8.packets_outside > 0, "{name}: no packet left at once");
+        }
+        // Camera packets skip the test against the scene's box only when the camera is
+        // inside it: `bunny`'s camera is inside its 100-unit ground sphere, `cornell`'s
+        // looks into the room from outside.
+        let inside = Tracer::new(&scene, &accel, 1).camera_inside;
+        let o = scene.camera.origin;
+        assert_eq!(
+            inside,
+            scene.bounds.min.cmplt(o).all() && o.cmplt(scene.bounds.max).all(),
+            "{name}"
+        );
+        match *name {
+            "bunny" | "bunny-closeup" => assert!(inside, "{name}"),
+            n if n.starts_with("cornell") => assert!(!inside, "{name}"),
+            _ => {}
         }
     }
 }

@@ -155,6 +155,10 @@ pub struct Tracer<'a> {
     pub(crate) tables: packet::ShadeTables,
     /// The bounding balls `camera_cull` tests (`None` for the linear scan).
     cull_targets: Option<CullTargets>,
+    /// The camera sits inside the scene's bounds (clear of its faces): every camera ray
+    /// meets them, so camera packets skip that test (`bunny`'s ground sphere holds the
+    /// camera).
+    pub camera_inside: bool,
 }
 
 impl<'a> Tracer<'a> {
@@ -171,6 +175,10 @@ impl<'a> Tracer<'a> {
             specialize: true,
             tables: packet::ShadeTables::new(scene),
             cull_targets: CullTargets::new(scene, accel),
+            camera_inside: {
+                let (o, b, clear) = (scene.camera.origin, &scene.bounds, Vec3::splat(T_MIN));
+                b.min.cmplt(o - clear).all() && (o + clear).cmplt(b.max).all()
+            },
         }
     }
 
@@ -683,7 +691,8 @@ impl<L: Lane> PhongLanes<L> {
     #[inline]
     pub fn from_indices(table: &[Phong], index: &[u32; MAX_WIDTH]) -> Self {
         let first = index[0];
-        if index[..L::WIDTH].iter().all(|&i| i == first) {
+        // An OR of differences, not `all`: no branch per lane.
+        if index[..L::WIDTH].iter().fold(0, |d, &i| d | (i ^ first)) == 0 {
             return Self::splat(&table[first as usize]);
         }
         let m = |i: usize| &table[index[i] as usize];

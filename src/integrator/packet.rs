@@ -201,10 +201,12 @@ impl Tracer<'_> {
         let weight = |c: Vec3| if camera { Vec3::ONE * c } else { c };
         let (origin, dir) = (packet.origin(), packet.dir());
         let hits = if self.specialize
+            && !(camera && self.camera_inside)
             && packet.hits_box(&scene.bounds, T_MIN, f32::INFINITY) & active == 0
         {
             // The whole packet misses the scene: background at once. (A camera packet
-            // whose tile's cone meets nothing never gets here: `sample_packet`.)
+            // whose tile's cone meets nothing never gets here: `sample_packet`; nor one
+            // from a camera inside the bounds, which every ray meets.)
             counts.packets_outside += 1;
             PacketHits::none(active)
         } else {
