@@ -108,6 +108,14 @@ fn specialisation_skips_work_and_keeps_the_bits() {
         // Camera packets skip the test against the scene's box only when the camera is
         // inside it: `bunny`'s camera is inside its 100-unit ground sphere, `cornell`'s
         // looks into the room from outside.
+        if let Accel::Bvh(b) = &accel {
+            // The mesh is small in `bunny`'s scene, the room is all of `cornell`'s.
+            match *name {
+                "bunny" | "bunny-closeup" => assert!(b.tree_box_first, "{name}"),
+                n if n.starts_with("cornell") => assert!(!b.tree_box_first, "{name}"),
+                _ => {}
+            }
+        }
         let inside = Tracer::new(&scene, &accel, 1).camera_inside;
         let o = scene.camera.origin;
         assert_eq!(
@@ -227,6 +235,7 @@ material = "m"
             [1, 0, 0],
             "the ground sphere is beside the tree (`HUGE_FRACTION`), every other primitive in it"
         );
+        assert!(b.tree_box_first, "packets test the small tree's box first");
         (scene, accel)
     })
 }

@@ -173,7 +173,16 @@ pub struct Bvh4 {
     /// The box of the tree's primitives (`Aabb::EMPTY` without a tree): what the
     /// camera's cones test before the tree (`cull::CullTargets`).
     pub tree_box: Aabb,
+    /// Packets test `tree_box` before the root's four children: the tree is small in
+    /// the scene (`TREE_BOX_FIRST`), so most packets pass beside it.
+    pub tree_box_first: bool,
 }
+
+/// A tree whose box has less than this fraction of the surface area of the scene's
+/// bounds is entered by packets through one test of its box (`Bvh4::tree_box_first`):
+/// 75% of `bunny`'s shadow packets miss its mesh's box (render instructions −4.3%),
+/// while in `cornell` the tree holds the room and every ray is inside it (+1.0%).
+pub const TREE_BOX_FIRST: f32 = 0.5;
 
 /// Four spheres, structure-of-arrays in `Vec4` lanes.
 #[derive(Clone, Copy, Debug)]
@@ -568,7 +577,10 @@ impl Bvh4 {
             tree_box: tree
                 .as_ref()
                 .map_or(Aabb::EMPTY, |t| t.node(BuildTree::ROOT).bounds),
+            tree_box_first: false,
         };
+        bvh.tree_box_first = !bvh.tree_box.is_empty()
+            && bvh.tree_box.surface_area() < TREE_BOX_FIRST * scene.bounds.surface_area();
         // The collapse reads only the tree and `position`, so it runs beside the pool
         // reordering: on the 1.27M-triangle bunny each takes about 60 ms (mostly page
         // faults on their new arrays), a sixth of the whole build.
