@@ -695,6 +695,14 @@ impl<L: Lane> PhongLanes<L> {
         if index[..L::WIDTH].iter().fold(0, |d, &i| d | (i ^ first)) == 0 {
             return Self::splat(&table[first as usize]);
         }
+        Self::gather(table, index)
+    }
+
+    /// `from_indices` when the lanes differ: out of line, so the common splat is not
+    /// computed alongside the gathers.
+    #[cold]
+    #[inline(never)]
+    fn gather(table: &[Phong], index: &[u32; MAX_WIDTH]) -> Self {
         let m = |i: usize| &table[index[i] as usize];
         Self {
             albedo: V3::from_fn(|i| m(i).albedo),
