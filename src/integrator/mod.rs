@@ -16,7 +16,7 @@ use crate::accel::{Accel, TraversalStats};
 use crate::geometry::spawn::{
     planar_point, planar_point_lanes, spawn_ray, sphere_point, sphere_point_lanes, ErrorPoint,
 };
-use crate::geometry::sphere::sphere_normal;
+use crate::geometry::sphere::{sphere_normal, SpherePool};
 use crate::geometry::{Hit, PrimKind, Ray};
 use crate::lanes::{set_lanes, Lane, Mask, V3};
 use crate::material::{
@@ -284,17 +284,12 @@ impl<'a> Tracer<'a> {
             let i = own_or_first(&index, spheres);
             let pool = &scene.spheres;
             // Most packets hit one sphere (a ground, a mirror): then no gathers.
-            let (c, r) = if i[..L::WIDTH].iter().all(|&j| j == i[0]) {
+            let (c, r) = if i[..L::WIDTH].iter().fold(0, |d, &j| d | (j ^ i[0])) == 0 {
                 let j = i[0];
                 let c = Vec3::new(pool.cx[j], pool.cy[j], pool.cz[j]);
                 (V3::splat(c), L::splat(pool.radius[j]))
             } else {
-                let c = V3::new(
-                    L::from_fn(|k| pool.cx[i[k]]),
-                    L::from_fn(|k| pool.cy[i[k]]),
-                    L::from_fn(|k| pool.cz[i[k]]),
-                );
-                (c, L::from_fn(|k| pool.radius[i[k]]))
+                gather_spheres(pool, &i)
             };
             (point, error) = sphere_point_lanes(c, r, on_ray);
             outward = sphere_normal(c, r, point);
@@ -654,6 +649,19 @@ pub fn mirror_direction<L: Lane>(d: V3<L>, n: V3<L>) -> V3<L> {
 #[inline(always)]
 pub fn mirror_fresnel<L: Lane>(d: V3<L>, n: V3<L>, index: L) -> L {
     schlick_lanes(d.dot(n).flip_sign().min(L::splat(1.0)), index)
+}
+
+/// The centres and radii of spheres `i[k]`, lane by lane. Out of line (cold): inlined,
+/// the compiler computed it beside the splat of one sphere on every packet.
+#[cold]
+#[inline(never)]
+fn gather_spheres<L: Lane>(pool: &SpherePool, i: &[usize; MAX_WIDTH]) -> (V3<L>, L) {
+    let c = V3::new(
+        L::from_fn(|k| pool.cx[i[k]]),
+        L::from_fn(|k| pool.cy[i[k]]),
+        L::from_fn(|k| pool.cz[i[k]]),
+    );
+    (c, L::from_fn(|k| pool.radius[i[k]]))
 }
 
 /// `index[k]` for the lanes `k` of `lanes` (not empty), the first of those lanes' index
