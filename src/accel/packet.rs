@@ -645,10 +645,10 @@ pub struct PacketHits<L> {
     /// The lanes' hit distance (during traversal, the best so far): +∞ without a hit,
     /// −∞ for lanes not traced.
     pub t: L,
-    /// The lanes' primitive (`prim_code`), its id and its object, each in the bits of
-    /// an f32. Only moved by splats and selects, never computed with, so the bits stay
-    /// as written.
-    prim: L,
+    /// The lanes' primitive (its index in its kind's pool), its id and its object,
+    /// each in the bits of an f32. Only moved by splats and selects, never computed
+    /// with, so the bits stay as written.
+    index: L,
     id: L,
     object: L,
     /// The lanes whose hit is a sphere, a quad, a triangle (`kind_slot`).
@@ -664,23 +664,6 @@ fn kind_slot(kind: PrimKind) -> usize {
     }
 }
 
-/// A primitive as 32 bits: the kind in the top two, the pool index below.
-#[inline(always)]
-fn prim_code(kind: PrimKind, i: usize) -> u32 {
-    debug_assert!(i < 1 << 30);
-    (kind_slot(kind) as u32) << 30 | i as u32
-}
-
-#[inline(always)]
-fn decode_prim(code: u32) -> (PrimKind, usize) {
-    let kind = match code >> 30 {
-        0 => PrimKind::Sphere,
-        1 => PrimKind::Quad,
-        _ => PrimKind::Triangle,
-    };
-    (kind, (code & ((1 << 30) - 1)) as usize)
-}
-
 impl<L: Lane> PacketHits<L> {
     /// No hits: the lanes of `active` at +∞, the others at −∞.
     #[inline(always)]
@@ -692,7 +675,7 @@ impl<L: Lane> PacketHits<L> {
                 L::splat(f32::INFINITY),
                 L::splat(f32::NEG_INFINITY),
             ),
-            prim: L::splat(0.0),
+            index: L::splat(0.0),
             id: L::splat(0.0),
             object: L::splat(0.0),
             kinds: [0; 3],
@@ -705,12 +688,18 @@ impl<L: Lane> PacketHits<L> {
         if self.found >> k & 1 == 0 {
             return None;
         }
-        let (kind, index) = decode_prim(self.prim.lane(k).to_bits());
+        let kind = if self.kinds[0] >> k & 1 != 0 {
+            PrimKind::Sphere
+        } else if self.kinds[1] >> k & 1 != 0 {
+            PrimKind::Quad
+        } else {
+            PrimKind::Triangle
+        };
         Some(Hit {
             t: self.t.lane(k),
             id: self.id.lane(k).to_bits(),
             kind,
-            index: index as u32,
+            index: self.index.lane(k).to_bits(),
             object: self.object.lane(k).to_bits(),
         })
     }
@@ -749,7 +738,7 @@ impl<L: Lane> PacketHits<L> {
     pub fn indices(&self) -> [usize; MAX_WIDTH] {
         std::array::from_fn(|k| {
             if k < L::WIDTH {
-                decode_prim(self.prim.lane(k).to_bits()).1
+                self.index.lane(k).to_bits() as usize
             } else {
                 0
             }
@@ -774,8 +763,7 @@ impl<L: Lane> PacketHits<L> {
         let m = L::Mask::from_bits(1 << k);
         self.t = L::select(m, L::splat(t), self.t);
         if let Some(h) = best {
-            let code = prim_code(h.kind, h.index as usize);
-            self.prim = L::select(m, L::splat(f32::from_bits(code)), self.prim);
+            self.index = L::select(m, L::splat(f32::from_bits(h.index)), self.index);
             self.id = L::select(m, L::splat(f32::from_bits(h.id)), self.id);
             self.object = L::select(m, L::splat(f32::from_bits(h.object)), self.object);
             self.found |= 1 << k;
@@ -813,7 +801,7 @@ impl<L: Lane> PacketHits<L> {
             let m = L::Mask::from_bits(win);
             let bits_of = |x: u32| L::splat(f32::from_bits(x));
             self.t = L::select(m, t, self.t);
-            self.prim = L::select(m, bits_of(prim_code(kind, i)), self.prim);
+            self.index = L::select(m, bits_of(i as u32), self.index);
             self.id = L::select(m, bits_of(id), self.id);
             self.object = L::select(m, bits_of(object), self.object);
             self.found |= win;
