@@ -31,6 +31,18 @@ pub fn set_lanes(mask: u32) -> impl Iterator<Item = usize> {
     })
 }
 
+/// Whether the first `width` entries of `xs` are all equal: an OR of differences, with
+/// no branch per entry (`width` ≥ 1).
+#[inline(always)]
+pub fn all_equal<T>(xs: &[T], width: usize) -> bool
+where
+    T: Copy + Default + PartialEq + std::ops::BitXor<Output = T> + std::ops::BitOr<Output = T>,
+{
+    let first = xs[0];
+    let zero = T::default();
+    xs[..width].iter().fold(zero, |d, &x| d | (x ^ first)) == zero
+}
+
 /// A lane mask: one bit per lane.
 pub trait Mask: Copy + BitAnd<Output = Self> + BitOr<Output = Self> + Not<Output = Self> {
     /// Bit `i` set when lane `i` is set.
@@ -562,6 +574,16 @@ impl<L: Lane> Sub for V3<L> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Only the first `width` entries count, and any single differing bit is seen.
+    #[test]
+    fn all_equal_looks_at_the_first_width_entries() {
+        let mut xs = [7u32; 8];
+        assert!(all_equal(&xs, 8) && all_equal(&xs, 1));
+        xs[5] = 7 ^ (1 << 31);
+        assert!(all_equal(&xs, 5) && !all_equal(&xs, 6) && !all_equal(&xs, 8));
+        assert!(!all_equal(&[1usize, 0, 1, 1], 4) && all_equal(&[0usize; 4], 4));
+    }
 
     fn check_rules<L: Lane>() {
         let nan = f32::NAN;

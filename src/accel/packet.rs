@@ -634,6 +634,12 @@ fn ids(scene: &Scene, kind: PrimKind, i: usize) -> (u32, u32) {
     }
 }
 
+/// `t` in the lanes of `lanes`, −∞ in the others (no box or primitive test passes).
+#[inline(always)]
+fn in_play<L: Lane>(lanes: u32, t: L) -> L {
+    L::select(L::Mask::from_bits(lanes), t, L::splat(f32::NEG_INFINITY))
+}
+
 const KINDS: [PrimKind; 3] = [PrimKind::Sphere, PrimKind::Quad, PrimKind::Triangle];
 
 /// The closest hits of a packet's lanes (`closest_hit_packet`), all in lanes: while
@@ -896,7 +902,7 @@ impl Bvh4 {
                 stats.packet_nodes += 1;
                 stats.packet_lanes += lanes.count_ones() as u64;
                 let node = &self.nodes[code as usize];
-                let t_max = L::select(L::Mask::from_bits(lanes), st.t, L::splat(f32::NEG_INFINITY));
+                let t_max = in_play(lanes, st.t);
                 // All four boxes first, with no branch between them (an empty slot's box
                 // is inverted and never hit): which children a packet enters is a coin
                 // toss for the branch predictor, so it is asked once, as a 4-bit mask.
@@ -1000,9 +1006,7 @@ impl Bvh4 {
                 LightShape::Triangles(_) => PrimKind::Triangle,
             });
         // Lanes not tested get t_max = −∞ (no box or primitive test passes).
-        let minus_inf = L::splat(f32::NEG_INFINITY);
-        let only = |lanes: u32, t: L| L::select(L::Mask::from_bits(lanes), t, minus_inf);
-        let mut t_max = only(remaining, L::from_fn(|k| t_light[k]));
+        let mut t_max = in_play(remaining, L::from_fn(|k| t_light[k]));
         let leaf = |kind: PrimKind, range: std::ops::Range<usize>, lanes: u32, t_max: L| -> u32 {
             let mut found = 0;
             // Primitives of the object's own kind are skipped before their test (the
@@ -1048,7 +1052,7 @@ impl Bvh4 {
         if remaining == 0 {
             return occluded;
         }
-        t_max = only(remaining, t_max);
+        t_max = in_play(remaining, t_max);
         // The tree's box first (`Bvh4::tree_box_first`): most `bunny` shadow packets
         // (75%) pass beside it, and one box costs a quarter of the root's four. A ray
         // outside a box is outside every box within it (the slab test is monotone in
@@ -1079,7 +1083,7 @@ impl Bvh4 {
                 stats.packet_nodes += 1;
                 stats.packet_lanes += lanes.count_ones() as u64;
                 let node = &self.nodes[code as usize];
-                let t_max_l = only(lanes, t_max);
+                let t_max_l = in_play(lanes, t_max);
                 // As in `closest_hit_packet`: the four boxes, then one mask.
                 let t_min_l = L::splat(t_min);
                 let tested: [u32; 4] =
@@ -1121,7 +1125,7 @@ impl Bvh4 {
             if found != 0 {
                 occluded |= found;
                 remaining &= !found;
-                t_max = only(remaining, t_max);
+                t_max = in_play(remaining, t_max);
             }
         }
         occluded

@@ -18,7 +18,7 @@ use crate::geometry::spawn::{
 };
 use crate::geometry::sphere::{sphere_normal, SpherePool};
 use crate::geometry::{Hit, PrimKind, Ray};
-use crate::lanes::{set_lanes, Lane, Mask, V3};
+use crate::lanes::{all_equal, set_lanes, Lane, Mask, V3};
 use crate::material::{
     random_unit_vector, reflect, reflect_lanes, refract, schlick, schlick_lanes, Material, Phong,
 };
@@ -155,9 +155,9 @@ pub struct Tracer<'a> {
     pub(crate) tables: packet::ShadeTables,
     /// The bounding balls `camera_cull` tests (`None` for the linear scan).
     cull_targets: Option<CullTargets>,
-    /// The camera sits inside the scene's bounds (clear of its faces): every camera ray
-    /// meets them, so camera packets skip that test (`bunny`'s ground sphere holds the
-    /// camera).
+    /// The camera sits strictly inside the scene's bounds: every camera ray meets them,
+    /// so camera packets skip that test (`bunny`'s ground sphere holds the camera).
+    /// Skipping an early-out never changes a result, only whether it is taken.
     pub camera_inside: bool,
 }
 
@@ -176,8 +176,8 @@ impl<'a> Tracer<'a> {
             tables: packet::ShadeTables::new(scene),
             cull_targets: CullTargets::new(scene, accel),
             camera_inside: {
-                let (o, b, clear) = (scene.camera.origin, &scene.bounds, Vec3::splat(T_MIN));
-                b.min.cmplt(o - clear).all() && (o + clear).cmplt(b.max).all()
+                let (o, b) = (scene.camera.origin, &scene.bounds);
+                b.min.cmplt(o).all() && o.cmplt(b.max).all()
             },
         }
     }
@@ -284,7 +284,7 @@ impl<'a> Tracer<'a> {
             let i = own_or_first(&index, spheres);
             let pool = &scene.spheres;
             // Most packets hit one sphere (a ground, a mirror): then no gathers.
-            let (c, r) = if i[..L::WIDTH].iter().fold(0, |d, &j| d | (j ^ i[0])) == 0 {
+            let (c, r) = if all_equal(&i, L::WIDTH) {
                 let j = i[0];
                 let c = Vec3::new(pool.cx[j], pool.cy[j], pool.cz[j]);
                 (V3::splat(c), L::splat(pool.radius[j]))
@@ -698,10 +698,8 @@ impl<L: Lane> PhongLanes<L> {
     /// splatted (compared as integers: no lookup until the lanes differ).
     #[inline]
     pub fn from_indices(table: &[Phong], index: &[u32; MAX_WIDTH]) -> Self {
-        let first = index[0];
-        // An OR of differences, not `all`: no branch per lane.
-        if index[..L::WIDTH].iter().fold(0, |d, &i| d | (i ^ first)) == 0 {
-            return Self::splat(&table[first as usize]);
+        if all_equal(index, L::WIDTH) {
+            return Self::splat(&table[index[0] as usize]);
         }
         Self::gather(table, index)
     }
