@@ -732,6 +732,21 @@ impl<L: Lane> PacketHits<L> {
         })
     }
 
+    /// Lane `k`'s object (meaningful in the lanes of `found`).
+    #[inline(always)]
+    pub fn object_of(&self, k: usize) -> u32 {
+        self.object.lane(k).to_bits()
+    }
+
+    /// The lanes of `found` whose object is `object`, by one lane compare: the bits of
+    /// an object number below 2³¹ − 2²³ are a float's that equals only itself (not a
+    /// NaN, and no object number has −0's bits).
+    #[inline(always)]
+    pub fn of_object(&self, object: u32) -> u32 {
+        debug_assert!(object < 0x7f80_0000);
+        self.object.eq(L::splat(f32::from_bits(object))).bits() & self.found
+    }
+
     /// The lanes whose hit is of `kind`.
     #[inline(always)]
     pub fn of_kind(&self, kind: PrimKind) -> u32 {

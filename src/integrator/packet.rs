@@ -37,6 +37,12 @@ const PATH: usize = 4;
 const CLASSES: usize = 5;
 /// A lane past the packet's width: in no class (its bit stays inside its byte).
 const NO_LANE: u8 = 7;
+/// `shade_packet`'s Phong material while no Phong lane is seen, and once two differ.
+const NO_PHONG: u32 = u32::MAX;
+const MIXED_PHONG: u32 = u32::MAX - 1;
+/// Up to this many objects, `shade_packet` sorts its lanes by one lane compare per
+/// object rather than a table lookup per lane (`ShadeTables::few`).
+const FEW_OBJECTS: usize = 8;
 
 /// The lanes of each class, from the lanes' classes. Byte k of `onehot` is
 /// 1 << (lane k's class); class c's lanes are bit c of each byte, gathered into the top
@@ -67,6 +73,8 @@ pub(crate) struct ShadeTables {
     phong: Vec<Phong>,
     /// The index into `phong` of the object's material (0 for entry 0).
     phong_of: Vec<u32>,
+    /// At most `FEW_OBJECTS` objects (`bunny`: four).
+    few: bool,
 }
 
 impl ShadeTables {
@@ -77,6 +85,7 @@ impl ShadeTables {
             mirror_index: vec![0.0; objects + 1],
             phong: vec![Phong::default(); scene.materials.len().max(1)],
             phong_of: vec![0; objects + 1],
+            few: objects <= FEW_OBJECTS,
         };
         for (i, m) in scene.materials.iter().enumerate() {
             if let Material::Phong(p) | Material::PhongMirror { phong: p, .. } = *m {
@@ -216,34 +225,61 @@ impl Tracer<'_> {
         // The lanes by how their hit is shaded, from the per-object tables: a lane's
         // material is a coin toss for the branch predictor, so no branch on it here.
         let t = &self.tables;
-        let objects = hits.objects();
         let found = hits.found & active;
-        let slot: [usize; MAX_WIDTH] = std::array::from_fn(|k| {
+        // Lane k's entry in the tables: its object + 1, 0 without a hit.
+        let slot = |k: usize| {
             if found >> k & 1 != 0 {
-                objects[k] as usize + 1
+                hits.object_of(k) as usize + 1
             } else {
                 0
             }
-        });
-        let by_class = lanes_by_class(std::array::from_fn(|k| {
-            if k < L::WIDTH {
-                t.class[slot[k]]
-            } else {
-                NO_LANE
+        };
+        // The lanes of each class, and the Phong material when every Phong lane has
+        // the same one. With few objects, one lane compare per object
+        // (`ShadeTables::few`); else one table lookup per lane.
+        let (by_class, uniform_phong) = if t.few {
+            let mut by_class = [0u32; CLASSES];
+            by_class[MISS] = !found;
+            let mut phong = NO_PHONG;
+            for o in 0..t.class.len() - 1 {
+                let lanes = hits.of_object(o as u32) & found;
+                if lanes == 0 {
+                    continue;
+                }
+                let class = t.class[o + 1] as usize;
+                by_class[class] |= lanes;
+                if class == PHONG || class == MIRROR {
+                    let p = t.phong_of[o + 1];
+                    phong = if phong == NO_PHONG || phong == p {
+                        p
+                    } else {
+                        MIXED_PHONG
+                    };
+                }
             }
-        }));
+            (by_class, phong)
+        } else {
+            let classes = std::array::from_fn(|k| {
+                if k < L::WIDTH {
+                    t.class[slot(k)]
+                } else {
+                    NO_LANE
+                }
+            });
+            (lanes_by_class(classes), MIXED_PHONG)
+        };
         let background = weight(scene.background);
         for k in set_lanes(by_class[MISS] & active) {
             out[k] = background;
         }
         for k in set_lanes(by_class[LIGHT]) {
-            if let Material::Light { color, .. } = *scene.material_of(slot[k] as u32 - 1) {
+            if let Material::Light { color, .. } = *scene.material_of(slot(k) as u32 - 1) {
                 out[k] = weight(color);
             }
         }
         let mut path_lanes = 0u32;
         for k in set_lanes(by_class[PATH]) {
-            match *scene.material_of(slot[k] as u32 - 1) {
+            match *scene.material_of(slot(k) as u32 - 1) {
                 Material::Diffuse { albedo } | Material::Metal { albedo, .. } if !camera => {
                     out[k] = albedo
                 }
@@ -281,15 +317,19 @@ impl Tracer<'_> {
         // The lanes' Phong parameters. A lane that does not shade with Phong takes the
         // first Phong lane's material (its values are never read), so a packet on one
         // material is recognised by `PhongLanes::from_indices` and splatted.
-        let first = t.phong_of[slot[phong_lanes.trailing_zeros() as usize]];
-        let index: [u32; MAX_WIDTH] = std::array::from_fn(|k| {
-            if phong_lanes >> k & 1 != 0 {
-                t.phong_of[slot[k]]
-            } else {
-                first
-            }
-        });
-        let materials = PhongLanes::<L>::from_indices(&t.phong, &index);
+        let materials = if uniform_phong < MIXED_PHONG {
+            PhongLanes::<L>::splat(&t.phong[uniform_phong as usize])
+        } else {
+            let first = t.phong_of[slot(phong_lanes.trailing_zeros() as usize)];
+            let index: [u32; MAX_WIDTH] = std::array::from_fn(|k| {
+                if phong_lanes >> k & 1 != 0 {
+                    t.phong_of[slot(k)]
+                } else {
+                    first
+                }
+            });
+            PhongLanes::<L>::from_indices(&t.phong, &index)
+        };
         let view = -dir;
         // Phong over the lanes, the same kernel as the scalar tracer's. As there, each
         // light sample's shadow rays are traced when the kernel asks for the sample: one
@@ -351,7 +391,7 @@ impl Tracer<'_> {
             false,
             counts,
         );
-        let f = mirror_fresnel(dir, s.normal, L::from_fn(|k| t.mirror_index[slot[k]]));
+        let f = mirror_fresnel(dir, s.normal, L::from_fn(|k| t.mirror_index[slot(k)]));
         let reflected = V3::from_fn(|k| reflected[k]);
         let mixed = local.scale(L::splat(1.0) - f) + reflected.scale(f);
         for k in set_lanes(mirror_lanes) {
