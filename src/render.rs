@@ -2,11 +2,10 @@
 //! mean of its samples summed in sample order, so the image is the same for any thread
 //! count and tile order.
 
-use crate::accel::packet::MAX_WIDTH;
 use crate::accel::Accel;
 use crate::error::{Error, Result};
 use crate::integrator::{footprint, RayCounts, Tracer};
-use crate::lanes::Lane;
+use crate::lanes::{Lane, V3};
 use crate::rng::{Sampler, SamplerKind};
 use crate::scene::Scene;
 use glam::{Vec3, Vec4};
@@ -199,19 +198,17 @@ fn render_tile_packets<L: Lane>(
                     active |= 1 << k;
                 }
             }
-            let mut sums = [Vec3::ZERO; MAX_WIDTH];
+            let mut sums = V3::<L>::splat(Vec3::ZERO);
             for s in 0..spp {
-                let c = tracer.sample_packet::<L>(px, py, active, s, cull, &mut counts);
-                for k in 0..L::WIDTH {
-                    sums[k] += c[k];
-                }
+                sums = sums + tracer.sample_packet::<L>(px, py, active, s, cull, &mut counts);
             }
             counts.cone_prims += cone_prims * active.count_ones() as u64 * spp as u64;
             counts.cone_trees += cone_tree as u64 * spp as u64;
             for k in 0..L::WIDTH as u32 {
                 if active >> k & 1 != 0 {
                     let (x, y) = (px + k % fw, py + k / fw);
-                    pixels[((y - y0) * tw + (x - x0)) as usize] = sums[k as usize] / spp as f32;
+                    pixels[((y - y0) * tw + (x - x0)) as usize] =
+                        sums.lane(k as usize) / spp as f32;
                 }
             }
         }

@@ -720,18 +720,6 @@ impl<L: Lane> PacketHits<L> {
         out
     }
 
-    /// The lanes' objects (meaningful in the lanes of `found`).
-    #[inline(always)]
-    pub fn objects(&self) -> [u32; MAX_WIDTH] {
-        std::array::from_fn(|k| {
-            if k < L::WIDTH {
-                self.object.lane(k).to_bits()
-            } else {
-                0
-            }
-        })
-    }
-
     /// Lane `k`'s object (meaningful in the lanes of `found`).
     #[inline(always)]
     pub fn object_of(&self, k: usize) -> u32 {

@@ -121,7 +121,8 @@ pub const fn footprint(width: usize) -> (u32, u32) {
 impl Tracer<'_> {
     /// Camera sample `sample` of the pixels of a packet whose lane 0 is pixel (x0, y0):
     /// lane i is pixel (x0 + i mod w, y0 + i div w) of the footprint, traced if bit i
-    /// of `active` is set. Lane i's colour is `sample(x, y, sample)` of its pixel.
+    /// of `active` is set. Lane i's colour is `sample(x, y, sample)` of its pixel (zero
+    /// in the lanes not traced).
     /// `cull`: what the packet's rays may hit, from `camera_cull` of a rectangle holding
     /// its pixels (`Cull::ALL` to test everything).
     pub fn sample_packet<L: Lane>(
@@ -132,21 +133,19 @@ impl Tracer<'_> {
         sample: u32,
         cull: Cull,
         counts: &mut RayCounts,
-    ) -> [Vec3; MAX_WIDTH] {
+    ) -> V3<L> {
         if cull.nothing && self.scene.max_depth > 0 {
             // No ray of the packet can hit anything: the background, as `shade_packet`
             // gives a lane that misses, without making the rays.
             counts.camera += active.count_ones() as u64;
             counts.camera_packets.record(active);
             counts.packets_outside += 1;
-            let background = Vec3::ONE * self.scene.background;
-            return std::array::from_fn(|k| {
-                if active >> k & 1 != 0 {
-                    background
-                } else {
-                    Vec3::ZERO
-                }
-            });
+            let background = V3::splat(Vec3::ONE * self.scene.background);
+            return V3::select(
+                L::Mask::from_bits(active),
+                background,
+                V3::splat(Vec3::ZERO),
+            );
         }
         let (fw, _) = footprint(L::WIDTH);
         let xs: [u32; MAX_WIDTH] = std::array::from_fn(|k| x0 + k as u32 % fw);
@@ -199,8 +198,8 @@ impl Tracer<'_> {
         budget: u32,
         camera: bool,
         counts: &mut RayCounts,
-    ) -> [Vec3; MAX_WIDTH] {
-        let mut out = [Vec3::ZERO; MAX_WIDTH];
+    ) -> V3<L> {
+        let mut out = V3::splat(Vec3::ZERO);
         if budget == 0 || active == 0 {
             return out;
         }
@@ -208,6 +207,29 @@ impl Tracer<'_> {
         // `trace` multiplies what it returns by the path throughput, which is one at the
         // camera vertex: keep the multiplication so the bits are the scalar ones.
         let weight = |c: Vec3| if camera { Vec3::ONE * c } else { c };
+        let weigh = |v: V3<L>| {
+            if camera {
+                let one = L::splat(1.0);
+                V3::new(one * v.x, one * v.y, one * v.z)
+            } else {
+                v
+            }
+        };
+        // The lanes shaded one at a time (lights seen, path-traced materials): their
+        // colours, merged into `out` on the way out.
+        let mut each = [Vec3::ZERO; MAX_WIDTH];
+        let mut each_lanes = 0u32;
+        let merge = |out: V3<L>, each: &[Vec3; MAX_WIDTH], each_lanes: u32| {
+            if each_lanes == 0 {
+                out
+            } else {
+                V3::select(
+                    L::Mask::from_bits(each_lanes),
+                    V3::from_fn(|k| each[k]),
+                    out,
+                )
+            }
+        };
         let (origin, dir) = (packet.origin(), packet.dir());
         let hits = if self.specialize
             && !(camera && self.camera_inside)
@@ -268,29 +290,32 @@ impl Tracer<'_> {
             });
             (lanes_by_class(classes), MIXED_PHONG)
         };
-        let background = weight(scene.background);
-        for k in set_lanes(by_class[MISS] & active) {
-            out[k] = background;
-        }
+        let background = V3::splat(weight(scene.background));
+        out = V3::select(L::Mask::from_bits(by_class[MISS] & active), background, out);
         for k in set_lanes(by_class[LIGHT]) {
             if let Material::Light { color, .. } = *scene.material_of(slot(k) as u32 - 1) {
-                out[k] = weight(color);
+                each[k] = weight(color);
+                each_lanes |= 1 << k;
             }
         }
         let mut path_lanes = 0u32;
         for k in set_lanes(by_class[PATH]) {
             match *scene.material_of(slot(k) as u32 - 1) {
                 Material::Diffuse { albedo } | Material::Metal { albedo, .. } if !camera => {
-                    out[k] = albedo
+                    each[k] = albedo;
+                    each_lanes |= 1 << k;
                 }
-                Material::Dielectric { .. } if !camera => out[k] = Vec3::ONE,
+                Material::Dielectric { .. } if !camera => {
+                    each[k] = Vec3::ONE;
+                    each_lanes |= 1 << k;
+                }
                 _ => path_lanes |= 1 << k,
             }
         }
         let mirror_lanes = by_class[MIRROR];
         let phong_lanes = by_class[PHONG] | mirror_lanes;
         if phong_lanes | path_lanes == 0 {
-            return out;
+            return merge(out, &each, each_lanes);
         }
         // The surfaces, lane-wise.
         let s = self.surface_lanes::<L>(origin, dir, &hits, phong_lanes | path_lanes);
@@ -300,7 +325,8 @@ impl Tracer<'_> {
             let material = scene.material_of(hit.object);
             let surface = s.lane(k, hit.object);
             let ray = Ray::new(origin.lane(k), dir.lane(k));
-            out[k] = match scatter(material, &ray, &surface, keys[k], vertex) {
+            each_lanes |= 1 << k;
+            each[k] = match scatter(material, &ray, &surface, keys[k], vertex) {
                 Some((attenuation, next_dir)) => {
                     let throughput = Vec3::ONE * attenuation;
                     let next = spawn_ray(&surface.point, surface.normal, next_dir);
@@ -311,7 +337,7 @@ impl Tracer<'_> {
             };
         }
         if phong_lanes == 0 {
-            return out;
+            return merge(out, &each, each_lanes);
         }
 
         // The lanes' Phong parameters. A lane that does not shade with Phong takes the
@@ -370,11 +396,13 @@ impl Tracer<'_> {
             );
             (visible, l)
         });
-        for k in set_lanes(phong_lanes & !mirror_lanes) {
-            out[k] = weight(local.lane(k));
-        }
+        out = V3::select(
+            L::Mask::from_bits(phong_lanes & !mirror_lanes),
+            weigh(local),
+            out,
+        );
         if mirror_lanes == 0 {
-            return out;
+            return merge(out, &each, each_lanes);
         }
 
         // PhongMirror: the reflections as one packet, then the Schlick mix.
@@ -392,12 +420,9 @@ impl Tracer<'_> {
             counts,
         );
         let f = mirror_fresnel(dir, s.normal, L::from_fn(|k| t.mirror_index[slot(k)]));
-        let reflected = V3::from_fn(|k| reflected[k]);
         let mixed = local.scale(L::splat(1.0) - f) + reflected.scale(f);
-        for k in set_lanes(mirror_lanes) {
-            out[k] = weight(mixed.lane(k));
-        }
-        out
+        out = V3::select(L::Mask::from_bits(mirror_lanes), weigh(mixed), out);
+        merge(out, &each, each_lanes)
     }
 }
 
