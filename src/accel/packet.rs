@@ -625,7 +625,7 @@ impl<'a, L: Lane> LazyTriangles<'a, L> {
 }
 
 /// Pool data of a primitive for a `Hit`.
-#[inline]
+#[inline(always)]
 fn ids(scene: &Scene, kind: PrimKind, i: usize) -> (u32, u32) {
     match kind {
         PrimKind::Sphere => (scene.spheres.id[i], scene.spheres.object[i]),

@@ -777,8 +777,14 @@ pub fn phong_lanes<L: Lane>(
             light_specular =
                 V3::select(mask, light_specular + radiance.scale(spec), light_specular);
         }
-        let n = L::splat(n as f32);
-        let mean = |v: V3<L>| V3::new(v.x / n, v.y / n, v.z / n);
+        // x / 1 is x, bit for bit (a point light's one sample): no division then.
+        let mean = |v: V3<L>| {
+            if n == 1 {
+                return v;
+            }
+            let n = L::splat(n as f32);
+            V3::new(v.x / n, v.y / n, v.z / n)
+        };
         diffuse = diffuse + mean(light_diffuse);
         specular = specular + mean(light_specular);
     }
