@@ -844,7 +844,7 @@ impl Bvh4 {
     ) -> PacketHits<L> {
         let tris = LazyTriangles::new(p, scene);
         let mut st = PacketHits::none(p.active);
-        for (k, kind) in KINDS.into_iter().enumerate() {
+        for (k, &kind) in KINDS.iter().enumerate() {
             let range = self.linear[k].clone();
             // (Not for an empty range: an empty pool must not make the watertight
             // lanes, `tris.get`.)
@@ -1040,7 +1040,7 @@ impl Bvh4 {
             }
             found
         };
-        for (k, kind) in KINDS.into_iter().enumerate() {
+        for (k, &kind) in KINDS.iter().enumerate() {
             let range = self.linear[k].clone();
             if !range.is_empty() && remaining != 0 {
                 stats.prims += (range.len() * remaining.count_ones() as usize) as u64;
