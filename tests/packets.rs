@@ -320,17 +320,25 @@ fn check_packet<L: Lane>(rays: &[Ray; MAX_WIDTH], active: u32) -> Result<(), Tes
         };
         prop_assert_eq!(key(&hits[k]), key(&want), "lane {} of {:?}", k, rays[k]);
     }
-    // Any-hit with arbitrary bounds: occluded before (t, id) per lane.
+    // Any-hit with arbitrary bounds: occluded before (t, id) per lane. In about half the
+    // lanes the bound is the lane's own closest hit, so a primitive at exactly the
+    // bound's distance is decided by the ids (`beats`).
     let Accel::Bvh(bvh) = accel else {
         unreachable!()
     };
     let mut rng = Rng(active as u64);
-    let t_light: [f32; MAX_WIDTH] = std::array::from_fn(|_| rng.range(0.0, 0.6));
-    let id_light: [u32; MAX_WIDTH] = std::array::from_fn(|_| (rng.next_u64() % 5000) as u32);
+    let t_light: [f32; MAX_WIDTH] = std::array::from_fn(|k| match hits[k] {
+        Some(h) if rng.next_u64() % 2 == 0 => h.t,
+        _ => rng.range(0.0, 0.6),
+    });
+    let id_light: [u32; MAX_WIDTH] = std::array::from_fn(|k| match hits[k] {
+        Some(h) if rng.next_u64() % 3 == 0 => h.id,
+        _ => (rng.next_u64() % 5000) as u32,
+    });
     let object = scene.lights[0].object;
-    let occluded = bvh.occluded_packet(
-        scene, &p, T_MIN, &t_light, &id_light, object, active, &mut s,
-    );
+    let t_lanes = L::from_fn(|k| t_light[k]);
+    let occluded =
+        bvh.occluded_packet(scene, &p, T_MIN, t_lanes, &id_light, object, active, &mut s);
     for k in 0..L::WIDTH {
         let want = active >> k & 1 != 0
             && bvh.occluded(

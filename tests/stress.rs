@@ -357,13 +357,12 @@ fn quad_rays(scene: &Scene, groups: &[Vec<(Vec3, Vec3)>], objects: &[u32], leaks
             hits4[4 * half..4 * half + 4].copy_from_slice(&h[..4]);
         }
         // Shadow rays towards a light far beyond the target, of no object in the scene.
-        let t_light = [f32::MAX; MAX_WIDTH];
         let id_light = [u32::MAX; MAX_WIDTH];
         let occluded = tree.occluded_packet(
             &bvh_scene,
             &p8,
             T_MIN,
-            &t_light,
+            f32x8::splat(f32::MAX),
             &id_light,
             u32::MAX,
             active,

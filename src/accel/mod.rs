@@ -203,29 +203,29 @@ impl Accel {
                 visible
             }
             Accel::Bvh(b) => {
-                let mut t_light = [0.0; MAX_WIDTH];
-                let mut id_light = [0; MAX_WIDTH];
-                let mut reach = 0;
-                if let LightShape::Point { center, radius } = light.shape {
-                    // `nearest_hit` of a point light, lane-wise.
-                    let (t, hits) = p.sphere(center, radius, t_min, f32::INFINITY, lanes);
-                    reach = hits;
-                    for k in 0..L::WIDTH {
-                        t_light[k] = t.lane(k);
-                        id_light[k] = light.first_id;
-                    }
-                } else if let LightShape::Quads(qs) = &light.shape {
-                    (t_light, id_light, reach) =
-                        p.quad_light_hits(scene, qs, light.first_id, t_min, lanes);
-                } else {
-                    for k in set_lanes(lanes) {
-                        if let Some((t, id)) = light.nearest_hit(&p.ray(k), t_min) {
-                            t_light[k] = t;
-                            id_light[k] = id;
-                            reach |= 1 << k;
-                        }
-                    }
-                }
+                let (t_light, id_light, reach) =
+                    if let LightShape::Point { center, radius } = light.shape {
+                        // `nearest_hit` of a point light, lane-wise.
+                        let (t, hits) = p.sphere(center, radius, t_min, f32::INFINITY, lanes);
+                        (t, [light.first_id; MAX_WIDTH], hits)
+                    } else {
+                        let (t, id, reach) = if let LightShape::Quads(qs) = &light.shape {
+                            p.quad_light_hits(scene, qs, light.first_id, t_min, lanes)
+                        } else {
+                            let mut t_light = [0.0; MAX_WIDTH];
+                            let mut id_light = [0; MAX_WIDTH];
+                            let mut reach = 0;
+                            for k in set_lanes(lanes) {
+                                if let Some((t, id)) = light.nearest_hit(&p.ray(k), t_min) {
+                                    t_light[k] = t;
+                                    id_light[k] = id;
+                                    reach |= 1 << k;
+                                }
+                            }
+                            (t_light, id_light, reach)
+                        };
+                        (L::from_fn(|k| t[k]), id, reach)
+                    };
                 if reach == 0 {
                     return 0;
                 }
@@ -233,7 +233,7 @@ impl Accel {
                     scene,
                     p,
                     t_min,
-                    &t_light,
+                    t_light,
                     &id_light,
                     light.object,
                     reach,

@@ -988,7 +988,7 @@ impl Bvh4 {
         scene: &Scene,
         p: &RayPacket<L>,
         t_min: f32,
-        t_light: &[f32; MAX_WIDTH],
+        t_light: L,
         id_light: &[u32; MAX_WIDTH],
         object: u32,
         lanes: u32,
@@ -1009,7 +1009,7 @@ impl Bvh4 {
                 LightShape::Triangles(_) => PrimKind::Triangle,
             });
         // Lanes not tested get t_max = −∞ (no box or primitive test passes).
-        let mut t_max = in_play(remaining, L::from_fn(|k| t_light[k]));
+        let mut t_max = in_play(remaining, t_light);
         let leaf = |kind: PrimKind, range: std::ops::Range<usize>, lanes: u32, t_max: L| -> u32 {
             let mut found = 0;
             // Primitives of the object's own kind are skipped before their test (the
@@ -1029,8 +1029,11 @@ impl Bvh4 {
                 if obj == object {
                     continue;
                 }
-                for k in set_lanes(bits) {
-                    if beats((t.lane(k), id), (t_light[k], id_light[k])) {
+                // `beats` lane-wise: nearer than the light, or as near with a smaller id.
+                let nearer = t.lt(t_light).bits() & bits;
+                found |= nearer;
+                for k in set_lanes(t.eq(t_light).bits() & bits & !nearer) {
+                    if id < id_light[k] {
                         found |= 1 << k;
                     }
                 }
@@ -1111,7 +1114,7 @@ impl Bvh4 {
                                 &pray,
                                 &bray,
                                 t_min,
-                                t_light[k],
+                                t_light.lane(k),
                                 id_light[k],
                                 object,
                                 stats,
