@@ -140,6 +140,23 @@ pub trait Lane:
         }
         v[0]
     }
+    /// The largest lane, for lanes that are not NaN: `reduce_min`'s tree with `>`.
+    #[inline(always)]
+    fn reduce_max(self) -> f32 {
+        let max = |a: f32, b: f32| if a > b { a } else { b };
+        let mut v = [f32::NEG_INFINITY; 8];
+        for (i, x) in v.iter_mut().enumerate().take(Self::WIDTH) {
+            *x = self.lane(i);
+        }
+        let mut w = Self::WIDTH;
+        while w > 1 {
+            w /= 2;
+            for i in 0..w {
+                v[i] = max(v[i], v[i + w]);
+            }
+        }
+        v[0]
+    }
 }
 
 impl Mask for bool {
@@ -409,6 +426,31 @@ impl Mask for Mask8 {
 impl Lane for f32x8 {
     type Mask = Mask8;
     const WIDTH: usize = 8;
+    /// The default's tree, step for step, in vector registers: `minps` is the same
+    /// `a < b ? a : b` per element.
+    #[inline(always)]
+    fn reduce_min(self) -> f32 {
+        let a = self.to_array();
+        let m4 = Vec4::from_slice(&a[..4]).min(Vec4::from_slice(&a[4..]));
+        let m2 = m4.min(glam::Vec4Swizzles::zwzw(m4));
+        if m2.x < m2.y {
+            m2.x
+        } else {
+            m2.y
+        }
+    }
+    /// As `reduce_min`, with `maxps` (`a > b ? a : b`).
+    #[inline(always)]
+    fn reduce_max(self) -> f32 {
+        let a = self.to_array();
+        let m4 = Vec4::from_slice(&a[..4]).max(Vec4::from_slice(&a[4..]));
+        let m2 = m4.max(glam::Vec4Swizzles::zwzw(m4));
+        if m2.x > m2.y {
+            m2.x
+        } else {
+            m2.y
+        }
+    }
     #[inline(always)]
     fn splat(x: f32) -> Self {
         f32x8::splat(x)
@@ -574,6 +616,47 @@ impl<L: Lane> Sub for V3<L> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The 8-wide reductions give the default tree's bits (the scalar `a < b ? a : b`
+    /// pairwise), signed zeros and infinities included.
+    #[test]
+    fn wide_reductions_are_the_default_tree() {
+        fn tree(v: [f32; 8], pick: fn(f32, f32) -> f32) -> f32 {
+            let mut v = v;
+            let mut w = 8;
+            while w > 1 {
+                w /= 2;
+                for i in 0..w {
+                    v[i] = pick(v[i], v[i + w]);
+                }
+            }
+            v[0]
+        }
+        let values = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            2.5,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            1e-40,
+        ];
+        let mut state = 1u64;
+        for _ in 0..20_000 {
+            let v: [f32; 8] = std::array::from_fn(|_| {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                values[(state >> 61) as usize]
+            });
+            let x = f32x8::from(v);
+            let min = tree(v, |a, b| if a < b { a } else { b });
+            let max = tree(v, |a, b| if a > b { a } else { b });
+            assert_eq!(x.reduce_min().to_bits(), min.to_bits(), "{v:?}");
+            assert_eq!(x.reduce_max().to_bits(), max.to_bits(), "{v:?}");
+        }
+    }
 
     /// Only the first `width` entries count, and any single differing bit is seen.
     #[test]
