@@ -254,6 +254,7 @@ fn packet_rays(scene: &Scene, accel: &Accel, kind: u8, seed: u64) -> [Ray; MAX_W
     let centre = (b.min + b.max) * 0.5;
     let base = point(&mut rng, 0.5);
     let aim = point(&mut rng, 0.0);
+    let octant = Vec3::new(rng.sign(), rng.sign(), rng.sign());
     std::array::from_fn(|_| match kind {
         0 => Ray::new(point(&mut rng, 0.5), rng.unit_vector()),
         1 => {
@@ -279,9 +280,15 @@ fn packet_rays(scene: &Scene, accel: &Accel, kind: u8, seed: u64) -> [Ray; MAX_W
             let d = Vec3::new(rng.f32(), rng.f32(), rng.f32()) + Vec3::splat(0.01);
             Ray::new(o, d.normalize())
         }
-        _ => {
+        5 => {
             let jitter = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * ext * 0.05;
             Ray::new(base, (aim + jitter - base).normalize_or(Vec3::X))
+        }
+        _ => {
+            // One origin, directions spread over one octant: a wide frustum
+            // (`Frustum` in `accel::packet`).
+            let d = rng.unit_vector().abs().max(Vec3::splat(1e-3)) * octant;
+            Ray::new(base, d.normalize())
         }
     })
 }
@@ -359,7 +366,7 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
 
     #[test]
-    fn packets_return_the_scalar_answers(kind in 0u8..6, seed: u64, mask in 1u32..256) {
+    fn packets_return_the_scalar_answers(kind in 0u8..7, seed: u64, mask in 1u32..256) {
         let (scene, accel) = mixed_scene();
         let rays = packet_rays(scene, accel, kind, seed);
         check_packet::<f32x8>(&rays, mask)?;
@@ -376,7 +383,7 @@ fn packet_rays_cover_hits_of_every_kind() {
     let mut s = TraversalStats::default();
     let mut kinds = std::collections::HashSet::new();
     let (mut hits, mut misses) = (0, 0);
-    for kind in 0..6 {
+    for kind in 0..7 {
         for seed in 0..50 {
             for r in packet_rays(scene, accel, kind, seed) {
                 match accel.closest_hit(scene, &r, T_MIN, f32::INFINITY, &mut s) {

@@ -981,7 +981,7 @@ impl Bvh4 {
 /// Four keys in ascending order: a sorting network of five compare-exchanges, each a
 /// min and a max (conditional moves, no branches).
 #[inline(always)]
-fn sort4(mut k: [u32; 4]) -> [u32; 4] {
+pub(crate) fn sort4(mut k: [u32; 4]) -> [u32; 4] {
     let mut exchange = |a: usize, b: usize| {
         let (x, y) = (k[a], k[b]);
         k[a] = x.min(y);

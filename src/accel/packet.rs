@@ -9,7 +9,7 @@
 //! (`Packet::fallback`) is finished one ray at a time by the scalar traversal.
 
 use super::bvh4::{
-    decode_leaf, plane_rows, slab, BoxRay, Bvh4, Node4, EMPTY, FAR_SCALE, LEAF, NEAR_SCALE,
+    decode_leaf, plane_rows, slab, sort4, BoxRay, Bvh4, Node4, EMPTY, FAR_SCALE, LEAF, NEAR_SCALE,
 };
 use super::cull::Cull;
 use super::linear::PrimRay;
@@ -23,6 +23,7 @@ use crate::geometry::triangle::{
 use crate::geometry::{beats, Aabb, Hit, PrimKind, Ray};
 use crate::lanes::{set_lanes, Lane, Mask, V3};
 use crate::scene::{LightShape, Scene};
+use glam::Vec4;
 use std::cell::OnceCell;
 use std::mem::MaybeUninit;
 
@@ -642,6 +643,81 @@ fn in_play<L: Lane>(lanes: u32, t: L) -> L {
 
 const KINDS: [PrimKind; 3] = [PrimKind::Sphere, PrimKind::Quad, PrimKind::Triangle];
 
+/// A packet whose rays share their origin and each axis' direction sign, bounded as one
+/// frustum: per axis the smallest and largest of the lanes' margin reciprocals. One
+/// 4-wide pass then tests a node's four children for the whole packet
+/// (`Frustum::test`), where the lane-wise test costs four 8-wide passes and the masks'
+/// bookkeeping (camera packets of `bunny-closeup`).
+///
+/// Why it is conservative: a lane's slab test computes `(plane − o) · inv` for its own
+/// `inv`, and for a fixed `plane − o` the rounded product is monotone in `inv` (rounding
+/// is monotone), so the smaller of the products with the smallest and the largest `inv`
+/// is at most every lane's entry on that axis, and the larger at least every lane's
+/// exit. With every lane's `t_max` at most `t_far`, a box the bounds reject is missed by
+/// every lane. The reciprocals must be finite and nonzero: no 0 · ∞ (a NaN the lane test
+/// treats as "no constraint") can arise then.
+#[derive(Clone, Copy, Debug)]
+struct Frustum {
+    origin: [Vec4; 3],
+    /// (smallest, largest) over the lanes of `inv_near` and of `inv_far`, per axis.
+    near: [(Vec4, Vec4); 3],
+    far: [(Vec4, Vec4); 3],
+    rows: ([usize; 3], [usize; 3]),
+}
+
+impl Frustum {
+    /// `None` unless every lane has the origin of lane 0 and the same direction signs,
+    /// and all reciprocals are finite and nonzero. Every lane counts, active or not (the
+    /// bounds then hold for more rays than needed, which is still conservative).
+    fn new<L: Lane>(p: &RayPacket<L>) -> Option<Frustum> {
+        let rows = p.box_rows?;
+        let all = (1u32 << L::WIDTH) - 1;
+        let o = [p.origin.x, p.origin.y, p.origin.z];
+        let mut origin = [Vec4::ZERO; 3];
+        let mut near = [(Vec4::ZERO, Vec4::ZERO); 3];
+        let mut far = [(Vec4::ZERO, Vec4::ZERO); 3];
+        let usable = |v: L| {
+            let a = v.abs();
+            a.lt(L::splat(f32::INFINITY)).bits() & a.gt(L::splat(0.0)).bits() == all
+        };
+        for a in 0..3 {
+            let o0 = o[a].lane(0);
+            if o[a].eq(L::splat(o0)).bits() != all {
+                return None;
+            }
+            if !usable(p.inv_near[a]) || !usable(p.inv_far[a]) {
+                return None;
+            }
+            origin[a] = Vec4::splat(o0);
+            let range = |v: L| (Vec4::splat(v.reduce_min()), Vec4::splat(v.reduce_max()));
+            near[a] = range(p.inv_near[a]);
+            far[a] = range(p.inv_far[a]);
+        }
+        Some(Frustum {
+            origin,
+            near,
+            far,
+            rows,
+        })
+    }
+
+    /// Lower bounds of the lanes' entry distances into the four children of `node`, and
+    /// the children some lane may enter within `[t_min, t_far]`.
+    #[inline(always)]
+    fn test(&self, node: &Node4, t_min: f32, t_far: f32) -> (Vec4, u32) {
+        let rows: &[[f32; 4]; 8] = bytemuck::cast_ref(node);
+        let row = |r: usize| Vec4::from(rows[r & 7]);
+        let (mut enter, mut exit) = (Vec4::splat(t_min), Vec4::splat(t_far));
+        for a in 0..3 {
+            let dn = row(self.rows.0[a]) - self.origin[a];
+            enter = enter.max((dn * self.near[a].0).min(dn * self.near[a].1));
+            let df = row(self.rows.1[a]) - self.origin[a];
+            exit = exit.min((df * self.far[a].0).max(df * self.far[a].1));
+        }
+        (enter, enter.cmple(exit).bitmask())
+    }
+}
+
 /// The closest hits of a packet's lanes (`closest_hit_packet`), all in lanes: while
 /// traversing, a winning primitive costs four selects, not a loop over its lanes.
 #[derive(Clone, Copy, Debug)]
@@ -878,6 +954,15 @@ impl Bvh4 {
         if !p.cull.tree {
             return st;
         }
+        // As in `occluded_packet`: the tree's box first.
+        let mut lanes = self.enters_tree(p, t_min, st.t) & p.active;
+        if lanes == 0 {
+            return st;
+        }
+        if let Some(fr) = Frustum::new(p) {
+            self.closest_frustum(scene, p, &fr, root, lanes, t_min, &mut st, &tris, stats);
+            return st;
+        }
         let fallback = RayPacket::<L>::fallback();
         let mut stack = [MaybeUninit::<(u32, u32, f32)>::uninit(); STACK_SIZE];
         let mut sp = 0;
@@ -885,8 +970,6 @@ impl Bvh4 {
         // is visited next without a trip through the stack (most nodes of a coherent
         // packet have one); the others are pushed, farthest first.
         let mut code = root;
-        // As in `occluded_packet`: the tree's box first.
-        let mut lanes = self.enters_tree(p, t_min, st.t) & p.active;
         loop {
             if lanes != 0 && code & LEAF != 0 {
                 let (kind, start, count) = decode_leaf(code);
@@ -977,6 +1060,86 @@ impl Bvh4 {
             lanes = st.t.ge(L::splat(enter)).bits() & next_lanes;
         }
         st
+    }
+
+    /// `closest_hit_packet`'s tree traversal for a packet bounded by a frustum: each node
+    /// tests its four children once for the whole packet (`Frustum::test`), visits the
+    /// nearest next and pushes the others, farthest first (the scalar traversal's order),
+    /// and a leaf tests its primitives on the lanes of `lanes` whose closest hit is not
+    /// nearer than the leaf's entry bound. A subtree is skipped once its entry bound is
+    /// beyond every lane's closest hit. Which nodes are visited changes, never what a
+    /// lane finds: the bounds are conservative (`Frustum`) and a leaf's test is exact.
+    #[allow(clippy::too_many_arguments)]
+    fn closest_frustum<L: Lane>(
+        &self,
+        scene: &Scene,
+        p: &RayPacket<L>,
+        fr: &Frustum,
+        root: u32,
+        lanes: u32,
+        t_min: f32,
+        st: &mut PacketHits<L>,
+        tris: &LazyTriangles<'_, L>,
+        stats: &mut TraversalStats,
+    ) {
+        // The farthest closest hit of the lanes (+∞ while one has none).
+        let far = |st: &PacketHits<L>| in_play(lanes, st.t).reduce_max();
+        let mut t_far = far(st);
+        let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); STACK_SIZE];
+        let mut sp = 0;
+        let (mut code, mut enter) = (root, t_min);
+        'visit: loop {
+            if code & LEAF != 0 {
+                let (kind, start, count) = decode_leaf(code);
+                let leaf_lanes = st.t.ge(L::splat(enter)).bits() & lanes;
+                if leaf_lanes != 0 {
+                    stats.prims += (count * leaf_lanes.count_ones()) as u64;
+                    let range = start as usize..(start + count) as usize;
+                    st.leaf(scene, p, kind, range, t_min, leaf_lanes, tris.get(kind));
+                    t_far = far(st);
+                }
+            } else {
+                stats.nodes += 1;
+                stats.packet_nodes += 1;
+                stats.packet_lanes += lanes.count_ones() as u64;
+                let node = &self.nodes[code as usize];
+                let (entry, mask) = fr.test(node, t_min, t_far);
+                if mask != 0 {
+                    // As the scalar traversal: keys of the entry bounds' bits (positive:
+                    // at least t_min) with the slot in the low two bits, sorted.
+                    let e = entry.to_array();
+                    let keys = sort4([0, 1, 2, 3].map(|s| {
+                        if mask >> s & 1 != 0 {
+                            e[s].to_bits() & !3 | s as u32
+                        } else {
+                            u32::MAX
+                        }
+                    }));
+                    let k = mask.count_ones() as usize;
+                    for &key in keys[1..k].iter().rev() {
+                        let s = (key & 3) as usize;
+                        stack[sp].write((node.child[s], e[s]));
+                        sp += 1;
+                    }
+                    let s = (keys[0] & 3) as usize;
+                    (code, enter) = (node.child[s], e[s]);
+                    continue 'visit;
+                }
+            }
+            // Pop the next subtree some lane may still find something nearer in.
+            loop {
+                if sp == 0 {
+                    return;
+                }
+                sp -= 1;
+                // SAFETY: slot `sp` < the highest `sp` reached, all of which were written.
+                let (next, e) = unsafe { stack[sp].assume_init() };
+                if e <= t_far {
+                    (code, enter) = (next, e);
+                    continue 'visit;
+                }
+            }
+        }
     }
 
     /// Shadow rays: the lanes of `lanes` for which a primitive of another object than

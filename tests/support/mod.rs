@@ -110,6 +110,15 @@ impl Rng {
         glam::Vec3::from(d)
     }
 
+    /// +1 or −1.
+    pub fn sign(&mut self) -> f32 {
+        if self.next_u64() % 2 == 0 {
+            1.0
+        } else {
+            -1.0
+        }
+    }
+
     pub fn unit_vector(&mut self) -> glam::Vec3 {
         let z = self.range(-1.0, 1.0);
         let phi = self.range(0.0, std::f32::consts::TAU);
