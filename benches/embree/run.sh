@@ -9,8 +9,11 @@
 # get the same triangles and nothing else). `bunny-light`: `bunny`'s shadow rays on its
 # mesh and its point light (ours needs the light's sphere to answer a shadow query, and
 # tests it beside the tree; Embree gets the mesh alone, each ray ending just short of
-# the light). Each round runs `vs_embree` (ours) then `embree_bench` (Embree) on each
-# case; each prints every pass and the median of its passes. The summary is the median,
+# the light). Each round runs `vs_embree` (ours) then `embree_bench` (Embree) twice on
+# each case: with Embree's default intersect context (which says the rays are
+# incoherent) and with EMBREE_COHERENT=1 (RTC_INTERSECT_CONTEXT_FLAG_COHERENT, how
+# Embree is meant to be given camera packets); each prints every pass and the median
+# of its passes. The summary is the median,
 # over rounds, of those medians.
 #
 # Needs a C compiler and Embree 3 (Debian: `apt-get install libembree-dev`, 3.13.5).
@@ -52,12 +55,17 @@ for r in $(seq "$rounds"); do
         # shellcheck disable=SC2086
         EMBREE_MESH_ONLY=$mesh "$work/embree_bench" "$work/$n.rays" "$passes" $set |
             sed "s/^/$n embree /" | tee -a "$log"
+        # shellcheck disable=SC2086
+        EMBREE_COHERENT=1 EMBREE_MESH_ONLY=$mesh "$work/embree_bench" "$work/$n.rays" "$passes" $set |
+            sed "s/^/$n coherent /" | tee -a "$log"
     done
 done
 
 echo
-echo "median over $rounds rounds of each run's median, and their range (Mrays/s, one thread):"
-printf '%-13s %-8s %20s %20s %7s\n' case set ours embree ratio
+echo "median over $rounds rounds of each run's median, and their range (Mrays/s, one thread);"
+echo "Embree with its default (incoherent) context, and told the rays are coherent;"
+echo "the ratio is ours over the faster of the two:"
+printf '%-13s %-8s %20s %20s %20s %7s\n' case set ours embree coherent ratio
 awk '/median/ {
     for (i = 1; i <= NF; i++) if ($i == "median") v = $(i + 1)
     key = $1 " " $3; sub(/;$/, "", v)
@@ -75,6 +83,8 @@ END {
     for (i = 1; i <= n; i++) {
         split(order[i], p, " ")
         stats(vals[order[i], "ours"], o); stats(vals[order[i], "embree"], e)
-        printf "%-13s %-8s %6.1f (%4.1f-%4.1f) %6.1f (%4.1f-%4.1f) %6.2fx\n", p[1], p[2], o[1], o[2], o[3], e[1], e[2], e[3], o[1] / e[1]
+        stats(vals[order[i], "coherent"], c)
+        best = e[1] > c[1] ? e[1] : c[1]
+        printf "%-13s %-8s %6.1f (%4.1f-%4.1f) %6.1f (%4.1f-%4.1f) %6.1f (%4.1f-%4.1f) %6.2fx\n", p[1], p[2], o[1], o[2], o[3], e[1], e[2], e[3], c[1], c[2], c[3], o[1] / best
     }
 }' "$log"
