@@ -126,37 +126,39 @@ pub trait Lane:
     /// NaN handling cost three more instructions per lane (callgrind, packet traversal).
     #[inline(always)]
     fn reduce_min(self) -> f32 {
-        let min = |a: f32, b: f32| if a < b { a } else { b };
-        let mut v = [f32::INFINITY; 8];
-        for (i, x) in v.iter_mut().enumerate().take(Self::WIDTH) {
-            *x = self.lane(i);
-        }
-        let mut w = Self::WIDTH;
-        while w > 1 {
-            w /= 2;
-            for i in 0..w {
-                v[i] = min(v[i], v[i + w]);
-            }
-        }
-        v[0]
+        reduce_tree(self, |a, b| if a < b { a } else { b })
     }
-    /// The largest lane, for lanes that are not NaN: `reduce_min`'s tree with `>`.
+    /// The largest lane, for lanes that are not NaN: the same tree with `>`.
     #[inline(always)]
     fn reduce_max(self) -> f32 {
-        let max = |a: f32, b: f32| if a > b { a } else { b };
-        let mut v = [f32::NEG_INFINITY; 8];
-        for (i, x) in v.iter_mut().enumerate().take(Self::WIDTH) {
-            *x = self.lane(i);
-        }
-        let mut w = Self::WIDTH;
-        while w > 1 {
-            w /= 2;
-            for i in 0..w {
-                v[i] = max(v[i], v[i + w]);
-            }
-        }
-        v[0]
+        reduce_tree(self, |a, b| if a > b { a } else { b })
     }
+}
+
+/// `pick` over the lanes as a pairwise tree: lane i against lane i + w/2, halving w.
+#[inline(always)]
+fn reduce_tree<L: Lane>(x: L, pick: impl Fn(f32, f32) -> f32) -> f32 {
+    let mut v = [0.0; 8];
+    for (i, s) in v.iter_mut().enumerate().take(L::WIDTH) {
+        *s = x.lane(i);
+    }
+    let mut w = L::WIDTH;
+    while w > 1 {
+        w /= 2;
+        for i in 0..w {
+            v[i] = pick(v[i], v[i + w]);
+        }
+    }
+    v[0]
+}
+
+/// `reduce_tree` of 8 lanes with `op` on 4-lane halves, then on pairs, then `pick`.
+#[inline(always)]
+fn reduce8(x: f32x8, op: impl Fn(Vec4, Vec4) -> Vec4, pick: impl Fn(f32, f32) -> f32) -> f32 {
+    let a = x.to_array();
+    let m4 = op(Vec4::from_slice(&a[..4]), Vec4::from_slice(&a[4..]));
+    let m2 = op(m4, glam::Vec4Swizzles::zwzw(m4));
+    pick(m2.x, m2.y)
 }
 
 impl Mask for bool {
@@ -430,26 +432,12 @@ impl Lane for f32x8 {
     /// `a < b ? a : b` per element.
     #[inline(always)]
     fn reduce_min(self) -> f32 {
-        let a = self.to_array();
-        let m4 = Vec4::from_slice(&a[..4]).min(Vec4::from_slice(&a[4..]));
-        let m2 = m4.min(glam::Vec4Swizzles::zwzw(m4));
-        if m2.x < m2.y {
-            m2.x
-        } else {
-            m2.y
-        }
+        reduce8(self, Vec4::min, |a, b| if a < b { a } else { b })
     }
     /// As `reduce_min`, with `maxps` (`a > b ? a : b`).
     #[inline(always)]
     fn reduce_max(self) -> f32 {
-        let a = self.to_array();
-        let m4 = Vec4::from_slice(&a[..4]).max(Vec4::from_slice(&a[4..]));
-        let m2 = m4.max(glam::Vec4Swizzles::zwzw(m4));
-        if m2.x > m2.y {
-            m2.x
-        } else {
-            m2.y
-        }
+        reduce8(self, Vec4::max, |a, b| if a > b { a } else { b })
     }
     #[inline(always)]
     fn splat(x: f32) -> Self {

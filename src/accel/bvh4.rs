@@ -828,19 +828,9 @@ impl Bvh4 {
                         code = near;
                         continue 'visit;
                     }
-                    // Three or four: sort nearest first, push all but the nearest
-                    // (farthest first). Branch-free: each key is the entry distance's
-                    // bits (positive floats order as their bits) with the slot in the
-                    // low two bits, a missed slot `u32::MAX`, and a five-exchange
-                    // sorting network orders them. The dropped bits only change the
-                    // order of near-equal entries, never what is found.
-                    let keys = sort4([0, 1, 2, 3].map(|s| {
-                        if mask >> s & 1 != 0 {
-                            e[s].to_bits() & !3 | s as u32
-                        } else {
-                            u32::MAX
-                        }
-                    }));
+                    // Three or four: sort nearest first (branch-free: `nearest_first`),
+                    // push all but the nearest (farthest first).
+                    let keys = nearest_first(mask, &e);
                     let k = mask.count_ones() as usize;
                     for &key in keys[1..k].iter().rev() {
                         let s = (key & 3) as usize;
@@ -978,10 +968,25 @@ impl Bvh4 {
     }
 }
 
+/// The slots of `mask` nearest first by their entry distances `e` (positive, so their
+/// bits order as they do), as keys: the distance's bits with the slot in the low two
+/// bits (`key & 3`), a slot not in `mask` `u32::MAX` (last). The dropped bits only
+/// reorder near-equal entries.
+#[inline(always)]
+pub(crate) fn nearest_first(mask: u32, e: &[f32; 4]) -> [u32; 4] {
+    sort4([0, 1, 2, 3].map(|s| {
+        if mask >> s & 1 != 0 {
+            e[s].to_bits() & !3 | s as u32
+        } else {
+            u32::MAX
+        }
+    }))
+}
+
 /// Four keys in ascending order: a sorting network of five compare-exchanges, each a
 /// min and a max (conditional moves, no branches).
 #[inline(always)]
-pub(crate) fn sort4(mut k: [u32; 4]) -> [u32; 4] {
+fn sort4(mut k: [u32; 4]) -> [u32; 4] {
     let mut exchange = |a: usize, b: usize| {
         let (x, y) = (k[a], k[b]);
         k[a] = x.min(y);

@@ -9,7 +9,8 @@
 //! (`Packet::fallback`) is finished one ray at a time by the scalar traversal.
 
 use super::bvh4::{
-    decode_leaf, plane_rows, slab, sort4, BoxRay, Bvh4, Node4, EMPTY, FAR_SCALE, LEAF, NEAR_SCALE,
+    decode_leaf, nearest_first, plane_rows, slab, BoxRay, Bvh4, Node4, EMPTY, FAR_SCALE, LEAF,
+    NEAR_SCALE,
 };
 use super::cull::Cull;
 use super::linear::PrimRay;
@@ -1105,16 +1106,10 @@ impl Bvh4 {
                 let node = &self.nodes[code as usize];
                 let (entry, mask) = fr.test(node, t_min, t_far);
                 if mask != 0 {
-                    // As the scalar traversal: keys of the entry bounds' bits (positive:
-                    // at least t_min) with the slot in the low two bits, sorted.
+                    // As the scalar traversal orders them (the bounds are at least
+                    // t_min, so positive).
                     let e = entry.to_array();
-                    let keys = sort4([0, 1, 2, 3].map(|s| {
-                        if mask >> s & 1 != 0 {
-                            e[s].to_bits() & !3 | s as u32
-                        } else {
-                            u32::MAX
-                        }
-                    }));
+                    let keys = nearest_first(mask, &e);
                     let k = mask.count_ones() as usize;
                     for &key in keys[1..k].iter().rev() {
                         let s = (key & 3) as usize;
