@@ -83,6 +83,15 @@ impl Node4 {
         _pad: [0; 4],
     };
 
+    /// Row `r` of the node seen as `[[f32; 4]; 8]` (min x, y, z, max x, y, z: one plane
+    /// of each child per row), as the box tests pick the near and far planes by row.
+    /// `& 7`: the rows are 0..6, and the mask lets the compiler drop the bounds check.
+    #[inline(always)]
+    pub(crate) fn row(&self, r: usize) -> [f32; 4] {
+        let rows: &[[f32; 4]; 8] = bytemuck::cast_ref(self);
+        rows[r & 7]
+    }
+
     /// The box of child `i` as (min, max) corners.
     #[inline(always)]
     pub fn child_box(&self, i: usize) -> ([f32; 3], [f32; 3]) {
@@ -258,9 +267,7 @@ impl BoxRay {
     /// when the first is NaN: that axis leaves the interval unconstrained.
     #[inline(always)]
     fn test(&self, n: &Node4, t_min: f32, t_max: f32) -> (Vec4, u32) {
-        let rows: &[[f32; 4]; 8] = bytemuck::cast_ref(n);
-        // `& 7`: the rows are 0..6, and the mask lets the compiler drop the bounds checks.
-        let row = |r: usize| Vec4::from(rows[r & 7]);
+        let row = |r: usize| Vec4::from(n.row(r));
         let (enter, hit) = slab(
             self.near_row.map(row),
             self.far_row.map(row),

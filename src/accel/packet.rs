@@ -386,9 +386,7 @@ impl<L: Lane> RayPacket<L> {
     fn test_child(&self, node: &Node4, c: usize, t_min: L, t_max: L) -> (L, u32) {
         match self.box_rows {
             Some((near_row, far_row)) => {
-                let rows: &[[f32; 4]; 8] = bytemuck::cast_ref(node);
-                // `& 7`: the rows are 0..6; the mask drops the bounds checks.
-                let plane = |r: usize| L::splat(rows[r & 7][c & 3]);
+                let plane = |r: usize| L::splat(node.row(r)[c & 3]);
                 let o = [self.origin.x, self.origin.y, self.origin.z];
                 let (enter, hit) = slab(
                     near_row.map(plane),
@@ -681,6 +679,7 @@ impl Frustum {
             let a = v.abs();
             a.lt(L::splat(f32::INFINITY)).bits() & a.gt(L::splat(0.0)).bits() == all
         };
+        let range = |v: L| (Vec4::splat(v.reduce_min()), Vec4::splat(v.reduce_max()));
         for a in 0..3 {
             let o0 = o[a].lane(0);
             if o[a].eq(L::splat(o0)).bits() != all {
@@ -690,7 +689,6 @@ impl Frustum {
                 return None;
             }
             origin[a] = Vec4::splat(o0);
-            let range = |v: L| (Vec4::splat(v.reduce_min()), Vec4::splat(v.reduce_max()));
             near[a] = range(p.inv_near[a]);
             far[a] = range(p.inv_far[a]);
         }
@@ -706,8 +704,7 @@ impl Frustum {
     /// the children some lane may enter within `[t_min, t_far]`.
     #[inline(always)]
     fn test(&self, node: &Node4, t_min: f32, t_far: f32) -> (Vec4, u32) {
-        let rows: &[[f32; 4]; 8] = bytemuck::cast_ref(node);
-        let row = |r: usize| Vec4::from(rows[r & 7]);
+        let row = |r: usize| Vec4::from(node.row(r));
         let (mut enter, mut exit) = (Vec4::splat(t_min), Vec4::splat(t_far));
         for a in 0..3 {
             let dn = row(self.rows.0[a]) - self.origin[a];
@@ -1188,9 +1185,8 @@ impl Bvh4 {
                     continue;
                 }
                 // `beats` lane-wise: nearer than the light, or as near with a smaller id.
-                let nearer = t.lt(t_light).bits() & bits;
-                found |= nearer;
-                for k in set_lanes(t.eq(t_light).bits() & bits & !nearer) {
+                found |= t.lt(t_light).bits() & bits;
+                for k in set_lanes(t.eq(t_light).bits() & bits) {
                     if id < id_light[k] {
                         found |= 1 << k;
                     }

@@ -207,7 +207,7 @@ impl Tracer<'_> {
         // `trace` multiplies what it returns by the path throughput, which is one at the
         // camera vertex: keep the multiplication so the bits are the scalar ones.
         let weight = |c: Vec3| if camera { Vec3::ONE * c } else { c };
-        let weigh = |v: V3<L>| {
+        let weight_lanes = |v: V3<L>| {
             if camera {
                 let one = L::splat(1.0);
                 V3::new(one * v.x, one * v.y, one * v.z)
@@ -398,7 +398,7 @@ impl Tracer<'_> {
         });
         out = V3::select(
             L::Mask::from_bits(phong_lanes & !mirror_lanes),
-            weigh(local),
+            weight_lanes(local),
             out,
         );
         if mirror_lanes == 0 {
@@ -421,7 +421,7 @@ impl Tracer<'_> {
         );
         let f = mirror_fresnel(dir, s.normal, L::from_fn(|k| t.mirror_index[slot(k)]));
         let mixed = local.scale(L::splat(1.0) - f) + reflected.scale(f);
-        out = V3::select(L::Mask::from_bits(mirror_lanes), weigh(mixed), out);
+        out = V3::select(L::Mask::from_bits(mirror_lanes), weight_lanes(mixed), out);
         merge(out, &each, each_lanes)
     }
 }
