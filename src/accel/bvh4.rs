@@ -837,14 +837,7 @@ impl Bvh4 {
                     }
                     // Three or four: sort nearest first (branch-free: `nearest_first`),
                     // push all but the nearest (farthest first).
-                    let keys = nearest_first(mask, &e);
-                    let k = mask.count_ones() as usize;
-                    for &key in keys[1..k].iter().rev() {
-                        let s = (key & 3) as usize;
-                        stack[sp].write((node.child[s], e[s]));
-                        sp += 1;
-                    }
-                    code = node.child[(keys[0] & 3) as usize];
+                    code = node.child[push_farther(node, mask, &e, &mut stack, &mut sp)];
                     continue 'visit;
                 }
             } else {
@@ -975,12 +968,33 @@ impl Bvh4 {
     }
 }
 
+/// Of the children of `node` in `mask` (at least one), push all but the nearest by
+/// their entries `e` (positive) onto `stack` at `sp`, farthest first, with their
+/// entries, and return the nearest's slot (`nearest_first`'s order).
+#[inline(always)]
+pub(crate) fn push_farther(
+    node: &Node4,
+    mask: u32,
+    e: &[f32; 4],
+    stack: &mut [MaybeUninit<(u32, f32)>],
+    sp: &mut usize,
+) -> usize {
+    let keys = nearest_first(mask, e);
+    let k = mask.count_ones() as usize;
+    for &key in keys[1..k].iter().rev() {
+        let s = (key & 3) as usize;
+        stack[*sp].write((node.child[s], e[s]));
+        *sp += 1;
+    }
+    (keys[0] & 3) as usize
+}
+
 /// The slots of `mask` nearest first by their entry distances `e` (positive, so their
 /// bits order as they do), as keys: the distance's bits with the slot in the low two
 /// bits (`key & 3`), a slot not in `mask` `u32::MAX` (last). The dropped bits only
 /// reorder near-equal entries.
 #[inline(always)]
-pub(crate) fn nearest_first(mask: u32, e: &[f32; 4]) -> [u32; 4] {
+fn nearest_first(mask: u32, e: &[f32; 4]) -> [u32; 4] {
     sort4([0, 1, 2, 3].map(|s| {
         if mask >> s & 1 != 0 {
             e[s].to_bits() & !3 | s as u32

@@ -9,7 +9,7 @@
 //! (`Packet::fallback`) is finished one ray at a time by the scalar traversal.
 
 use super::bvh4::{
-    decode_leaf, nearest_first, plane_rows, slab, BoxRay, Bvh4, Node4, EMPTY, FAR_SCALE, LEAF,
+    decode_leaf, plane_rows, push_farther, slab, BoxRay, Bvh4, Node4, EMPTY, FAR_SCALE, LEAF,
     NEAR_SCALE,
 };
 use super::cull::Cull;
@@ -1106,14 +1106,7 @@ impl Bvh4 {
                     // As the scalar traversal orders them (the bounds are at least
                     // t_min, so positive).
                     let e = entry.to_array();
-                    let keys = nearest_first(mask, &e);
-                    let k = mask.count_ones() as usize;
-                    for &key in keys[1..k].iter().rev() {
-                        let s = (key & 3) as usize;
-                        stack[sp].write((node.child[s], e[s]));
-                        sp += 1;
-                    }
-                    let s = (keys[0] & 3) as usize;
+                    let s = push_farther(node, mask, &e, &mut stack, &mut sp);
                     (code, enter) = (node.child[s], e[s]);
                     continue 'visit;
                 }
