@@ -373,15 +373,87 @@ fn tree_is_the_same_for_one_and_two_threads() {
         bytemuck::cast_slice::<_, u8>(&one.nodes),
         bytemuck::cast_slice::<_, u8>(&two.nodes)
     );
+    assert!(one.nodes8.len() > 500);
     assert_eq!(
-        (one.root, one.depth, one.leaves),
-        (two.root, two.depth, two.leaves)
+        bytemuck::cast_slice::<_, u8>(&one.nodes8),
+        bytemuck::cast_slice::<_, u8>(&two.nodes8)
+    );
+    assert_eq!(
+        (one.root, one.root8, one.depth, one.leaves),
+        (two.root, two.root8, two.depth, two.leaves)
     );
     assert_eq!(ids1, ids2);
     assert_eq!(
         ax1.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
         ax2.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
     );
+}
+
+/// A child's box as (min, max) corners.
+type ChildBox<N> = dyn Fn(&N, usize) -> ([f32; 3], [f32; 3]);
+
+/// The leaves of a tree (`nodes`, `node_box` and `children` of one width) under
+/// `code`, each with the box its parent gives it, checking that every child's box
+/// holds its own children's.
+fn leaves_under<N>(
+    nodes: &[N],
+    code: u32,
+    node_box: &ChildBox<N>,
+    children: &dyn Fn(&N) -> &[u32],
+    out: &mut Vec<u32>,
+) {
+    use raytracer::accel::bvh4::{EMPTY, LEAF};
+    if code & LEAF != 0 {
+        out.push(code);
+        return;
+    }
+    let n = &nodes[code as usize];
+    for (i, &c) in children(n).iter().enumerate() {
+        if c == EMPTY {
+            continue;
+        }
+        let (lo, hi) = node_box(n, i);
+        if c & LEAF == 0 {
+            let kid = &nodes[c as usize];
+            for (j, &g) in children(kid).iter().enumerate() {
+                if g != EMPTY {
+                    let (glo, ghi) = node_box(kid, j);
+                    assert!((0..3).all(|a| lo[a] <= glo[a] && ghi[a] <= hi[a]));
+                }
+            }
+        }
+        leaves_under(nodes, c, node_box, children, out);
+    }
+}
+
+#[test]
+fn the_8_wide_tree_has_the_4_wide_leaves_in_the_same_order() {
+    for scene in [bunny_mesh_scene(1), mixed_scene()] {
+        let mut s = scene;
+        let Accel::Bvh(b) = Accel::build(&mut s, AccelKind::Bvh) else {
+            unreachable!()
+        };
+        let (mut four, mut eight) = (Vec::new(), Vec::new());
+        leaves_under(
+            &b.nodes,
+            b.root.unwrap(),
+            &|n, i| n.child_box(i),
+            &|n| &n.child,
+            &mut four,
+        );
+        leaves_under(
+            &b.nodes8,
+            b.root8.unwrap(),
+            &|n, i| n.child_box(i),
+            &|n| &n.child,
+            &mut eight,
+        );
+        assert_eq!(four.len() as u32, b.leaves);
+        assert_eq!(four, eight);
+        // Fewer, wider nodes: at most 4 − 1 and 8 − 1 new children a node.
+        assert!(b.nodes8.len() < b.nodes.len());
+        assert!(b.nodes8.len() * 7 + 1 >= b.leaves as usize);
+    }
 }
 
 #[test]

@@ -22,6 +22,67 @@ use std::mem::MaybeUninit;
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+mod node8;
+pub use node8::{BoxRay8, Node8};
+
+/// A node width of the scalar traversal (`Bvh4::traverse`): `Node4`, which packets trace
+/// too, and `Node8`, for single rays.
+pub(crate) trait Wide: Copy {
+    const WIDTH: usize;
+    const EMPTY: Self;
+    /// The per-ray constants of the box test.
+    type Ray;
+    /// The children's entry distances.
+    type Entries: Copy + AsRef<[f32]>;
+    fn set_child(&mut self, i: usize, b: Aabb, code: u32);
+    /// Entry distances of the children and the mask of those overlapping
+    /// `[t_min, t_max]` (`BoxRay::test`).
+    fn test(&self, ray: &Self::Ray, t_min: f32, t_max: f32) -> (Self::Entries, u32);
+    /// Child `i`'s code (`i` < `WIDTH`).
+    fn child(&self, i: usize) -> u32;
+    /// `push_farther` on this node.
+    fn push_farther(
+        &self,
+        mask: u32,
+        e: &Self::Entries,
+        stack: &mut [MaybeUninit<(u32, f32)>],
+        sp: &mut usize,
+    ) -> usize;
+}
+
+impl Wide for Node4 {
+    const WIDTH: usize = 4;
+    const EMPTY: Self = Node4::EMPTY;
+    type Ray = BoxRay;
+    type Entries = [f32; 4];
+
+    fn set_child(&mut self, i: usize, b: Aabb, code: u32) {
+        Node4::set_child(self, i, b, code)
+    }
+
+    #[inline(always)]
+    fn test(&self, ray: &BoxRay, t_min: f32, t_max: f32) -> ([f32; 4], u32) {
+        let (e, mask) = ray.test(self, t_min, t_max);
+        (e.to_array(), mask)
+    }
+
+    #[inline(always)]
+    fn child(&self, i: usize) -> u32 {
+        self.child[i & 3]
+    }
+
+    #[inline(always)]
+    fn push_farther(
+        &self,
+        mask: u32,
+        e: &[f32; 4],
+        stack: &mut [MaybeUninit<(u32, f32)>],
+        sp: &mut usize,
+    ) -> usize {
+        push_farther(self, mask, e, stack, sp)
+    }
+}
+
 /// A 4-wide node: child boxes SoA, then the four child codes. 128 bytes, two cache lines.
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
@@ -141,8 +202,8 @@ pub fn slab<L: Lane>(
     let far_x = (far[0] - origin[0]) * inv_far[0];
     let far_y = (far[1] - origin[1]) * inv_far[1];
     let far_z = (far[2] - origin[2]) * inv_far[2];
-    let enter = near_x.max(near_y.max(near_z.max(t_min)));
-    let exit = far_x.min(far_y.min(far_z.min(t_max)));
+    let enter = near_z.max(near_y).max(near_x.max(t_min));
+    let exit = far_z.min(far_y).min(far_x.min(t_max));
     (enter, enter.le(exit))
 }
 
@@ -168,6 +229,10 @@ pub struct Bvh4 {
     pub nodes: Vec<Node4>,
     /// Code of the root (an inner node index or a leaf), `None` when no kind is in the tree.
     pub root: Option<u32>,
+    /// The same tree collapsed to 8-wide nodes (the same leaves), which single rays
+    /// trace (`closest_hit`), and its root's code.
+    pub nodes8: Vec<Node8>,
+    pub root8: Option<u32>,
     /// The primitives of each kind tested in a loop beside the tree (index: sphere,
     /// quad, triangle): the whole pool of a kind of at most `LINEAR_LIMIT`, the pool's
     /// end for the huge primitives of a kind in the tree (`HUGE_FRACTION`), else empty.
@@ -297,7 +362,7 @@ struct RayConsts<'r> {
 
 impl<'r> RayConsts<'r> {
     #[inline(always)]
-    fn new(ray: &'r Ray) -> (RayConsts<'r>, BoxRay) {
+    fn new(ray: &'r Ray) -> (RayConsts<'r>, BoxRay8) {
         let d = ray.dir;
         let a = d.dot(d);
         let q = Vec4::ONE / Vec4::new(d.x, d.y, d.z, a);
@@ -312,7 +377,7 @@ impl<'r> RayConsts<'r> {
             sphere,
             triangle: None,
         };
-        (consts, BoxRay::from_inv(ray, q.truncate()))
+        (consts, BoxRay8::from_inv(ray, q.truncate()))
     }
 
     #[inline(always)]
@@ -577,6 +642,8 @@ impl Bvh4 {
         let mut bvh = Bvh4 {
             nodes: Vec::new(),
             root: None,
+            nodes8: Vec::new(),
+            root8: None,
             linear,
             depth: 0,
             leaves: 0,
@@ -609,6 +676,17 @@ impl Bvh4 {
                     // references, 360 189 nodes).
                     bvh.nodes.reserve(refs.len() / 3);
                     bvh.root = Some(bvh.collapse(tree, BuildTree::ROOT, position, 1));
+                    // About 0.7 of the 4-wide node count (the closeup bunny: 622 and 450).
+                    bvh.nodes8.reserve(bvh.nodes.len() * 3 / 4);
+                    let root = collapse(
+                        &mut bvh.nodes8,
+                        tree,
+                        BuildTree::ROOT,
+                        position,
+                        1,
+                        &mut Shape::default(),
+                    );
+                    bvh.root8 = Some(root);
                 }
             },
         );
@@ -616,9 +694,8 @@ impl Bvh4 {
         bvh
     }
 
-    /// Turn the binary subtree at `node` into 4-wide nodes (pre-order, so the layout is
-    /// deterministic). `position`: each reference's index in its kind's reordered pool
-    /// (`None`: the reference's own index).
+    /// Turn the binary subtree at `node` into 4-wide nodes (`collapse`), counting the
+    /// leaves and the depth.
     fn collapse(
         &mut self,
         tree: &BuildTree,
@@ -626,47 +703,11 @@ impl Bvh4 {
         position: Option<&[u32]>,
         depth: u32,
     ) -> u32 {
-        let Some(children) = tree.children(node) else {
-            let leaf = tree.node(node);
-            self.leaves += 1;
-            self.depth = self.depth.max(depth);
-            let first = leaf.first_or_right;
-            let start = position.map_or(first, |p| p[first as usize]);
-            return encode_leaf(leaf.kind, start, leaf.count as u32);
-        };
-        // Open the largest inner child until there are four (of equal areas the last, as
-        // `Iterator::max_by` picks). An array, not a `Vec` per node.
-        let mut kids = [BuildTree::ROOT; 4];
-        kids[..2].copy_from_slice(&children);
-        let mut len = 2;
-        while len < 4 {
-            let mut widest: Option<(usize, f32)> = None;
-            for (i, &k) in kids[..len].iter().enumerate() {
-                if tree.children(k).is_some() {
-                    let area = tree.node(k).bounds.surface_area();
-                    if widest.is_none_or(|(_, w)| area.total_cmp(&w).is_ge()) {
-                        widest = Some((i, area));
-                    }
-                }
-            }
-            let Some((i, _)) = widest else { break };
-            let Some([l, r]) = tree.children(kids[i]) else {
-                break;
-            };
-            kids.copy_within(i + 1..len, i + 2);
-            kids[i] = l;
-            kids[i + 1] = r;
-            len += 1;
-        }
-        let index = self.nodes.len();
-        self.nodes.push(Node4::EMPTY);
-        let mut n = Node4::EMPTY;
-        for (slot, &kid) in kids[..len].iter().enumerate() {
-            let code = self.collapse(tree, kid, position, depth + 1);
-            n.set_child(slot, tree.node(kid).bounds, code);
-        }
-        self.nodes[index] = n;
-        index as u32
+        let mut shape = Shape::default();
+        let root = collapse(&mut self.nodes, tree, node, position, depth, &mut shape);
+        self.leaves += shape.leaves;
+        self.depth = self.depth.max(shape.depth);
+        root
     }
 
     /// Closest hit in `[t_min, t_max]` by the `(t, id)` rule.
@@ -685,8 +726,17 @@ impl Bvh4 {
         // division) then does not delay the root's box test, which would wait for the
         // `t_max` it produces; the ground sphere never pruned a node (same node counts on
         // `bunny` and `bunny-closeup`), and 2.5% fewer instructions a closeup ray.
-        if let Some(root) = self.root {
-            self.traverse(scene, root, &mut consts, &bray, t_min, &mut c, stats);
+        if let Some(root) = self.root8 {
+            traverse(
+                &self.nodes8,
+                scene,
+                root,
+                &mut consts,
+                &bray,
+                t_min,
+                &mut c,
+                stats,
+            );
         }
         self.linear_kinds(scene, &mut consts, t_min, &mut c, stats);
         c.hit(scene)
@@ -774,101 +824,20 @@ impl Bvh4 {
     ) {
         let mut c = Closest::new(*t_max, best);
         let mut consts = RayConsts::from_prim(pray);
-        self.traverse(scene, root, &mut consts, bray, t_min, &mut c, stats);
+        traverse(
+            &self.nodes,
+            scene,
+            root,
+            &mut consts,
+            bray,
+            t_min,
+            &mut c,
+            stats,
+        );
         *t_max = c.t_max;
         if let Some(h) = c.hit(scene) {
             *best = Some(h);
         }
-    }
-
-    /// The scalar closest-hit traversal. The current node stays in a register: of the
-    /// children a node's box test hits, the nearest is visited next and only the others
-    /// are pushed (farthest first), so a node with one hit child costs no push or pop.
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    fn traverse(
-        &self,
-        scene: &Scene,
-        root: u32,
-        consts: &mut RayConsts<'_>,
-        bray: &BoxRay,
-        t_min: f32,
-        c: &mut Closest,
-        stats: &mut TraversalStats,
-    ) {
-        // As a root popped from the stack at entry t_min would be.
-        if t_min > c.t_max {
-            return;
-        }
-        // Not zero-initialised: clearing 2 KiB per ray cost ~20% of the camera-ray rate on
-        // `bunny` (perf, benches/bvh.rs). Only slots below `sp` are read, and each was
-        // written before `sp` passed it.
-        let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); STACK_SIZE];
-        let mut sp = 0;
-        let (mut nodes, mut prims) = (0u64, 0u64);
-        let mut code = root;
-        // The triangle columns in this ray's axis order, at the first triangle leaf.
-        let mut cols: Option<Columns> = None;
-        'visit: loop {
-            if code & LEAF == 0 {
-                nodes += 1;
-                let node = &self.nodes[code as usize];
-                let (entry, mask) = bray.test(node, t_min, c.t_max);
-                if mask != 0 {
-                    let i = mask.trailing_zeros() as usize;
-                    let rest = mask & (mask - 1);
-                    if rest == 0 {
-                        code = node.child[i];
-                        continue 'visit;
-                    }
-                    let e = entry.to_array();
-                    let j = rest.trailing_zeros() as usize;
-                    if rest & (rest - 1) == 0 {
-                        // Two: push the farther. Which is nearer is a coin toss for the
-                        // branch predictor, so it is a select, not a branch.
-                        let (ci, cj) = (node.child[i], node.child[j]);
-                        let swap = e[j] < e[i];
-                        let (near, far) = if swap { (cj, ci) } else { (ci, cj) };
-                        let far_e = if swap { e[i] } else { e[j] };
-                        stack[sp].write((far, far_e));
-                        sp += 1;
-                        code = near;
-                        continue 'visit;
-                    }
-                    // Three or four: sort nearest first (branch-free: `nearest_first`),
-                    // push all but the nearest (farthest first).
-                    code = node.child[push_farther(node, mask, &e, &mut stack, &mut sp)];
-                    continue 'visit;
-                }
-            } else {
-                let (kind, start, count) = decode_leaf(code);
-                prims += count as u64;
-                if kind == PrimKind::Triangle {
-                    let tri = *consts.triangle();
-                    let cols = cols.get_or_insert_with(|| scene.triangles.columns(tri.axes));
-                    c.triangles4(scene, start as usize, count as usize, &tri, cols, t_min);
-                } else {
-                    let range = start as usize..(start + count) as usize;
-                    c.range(scene, kind, range, consts, t_min);
-                }
-            }
-            // Pop the next node still nearer than the best hit.
-            loop {
-                if sp == 0 {
-                    break 'visit;
-                }
-                sp -= 1;
-                // SAFETY: slot `sp` < the highest `sp` reached, all of which were written.
-                let (next, enter) = unsafe { stack[sp].assume_init() };
-                if enter > c.t_max {
-                    continue;
-                }
-                code = next;
-                continue 'visit;
-            }
-        }
-        stats.nodes += nodes;
-        stats.prims += prims;
     }
 
     /// Is there a hit of another object than `object` that beats `(t_light, id_light)`
@@ -966,6 +935,161 @@ impl Bvh4 {
         }
         false
     }
+}
+
+/// The scalar closest-hit traversal. The current node stays in a register: of the
+/// children a node's box test hits, the nearest is visited next and only the others
+/// are pushed (farthest first), so a node with one hit child costs no push or pop.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn traverse<N: Wide>(
+    tree: &[N],
+    scene: &Scene,
+    root: u32,
+    consts: &mut RayConsts<'_>,
+    bray: &N::Ray,
+    t_min: f32,
+    c: &mut Closest,
+    stats: &mut TraversalStats,
+) {
+    // As a root popped from the stack at entry t_min would be.
+    if t_min > c.t_max {
+        return;
+    }
+    // Not zero-initialised: clearing 2 KiB per ray cost ~20% of the camera-ray rate on
+    // `bunny` (perf, benches/bvh.rs). Only slots below `sp` are read, and each was
+    // written before `sp` passed it.
+    let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); STACK_SIZE];
+    let mut sp = 0;
+    let (mut nodes, mut prims) = (0u64, 0u64);
+    let mut code = root;
+    // The triangle columns in this ray's axis order, at the first triangle leaf.
+    let mut cols: Option<Columns> = None;
+    'visit: loop {
+        if code & LEAF == 0 {
+            nodes += 1;
+            let node = &tree[code as usize];
+            let (entry, mask) = node.test(bray, t_min, c.t_max);
+            if mask != 0 {
+                let i = mask.trailing_zeros() as usize;
+                let rest = mask & (mask - 1);
+                if rest == 0 {
+                    code = node.child(i);
+                    continue 'visit;
+                }
+                let e = entry.as_ref();
+                // Slots below `WIDTH` (a power of two): the mask lets the bounds checks go.
+                let (i, j) = (
+                    i & (N::WIDTH - 1),
+                    rest.trailing_zeros() as usize & (N::WIDTH - 1),
+                );
+                if rest & (rest - 1) == 0 {
+                    // Two: push the farther. Which is nearer is a coin toss for the
+                    // branch predictor, so it is a select, not a branch.
+                    let (ci, cj) = (node.child(i), node.child(j));
+                    let swap = e[j] < e[i];
+                    let (near, far) = if swap { (cj, ci) } else { (ci, cj) };
+                    let far_e = if swap { e[i] } else { e[j] };
+                    stack[sp].write((far, far_e));
+                    sp += 1;
+                    code = near;
+                    continue 'visit;
+                }
+                // Three or four: sort nearest first (branch-free: `nearest_first`),
+                // push all but the nearest (farthest first).
+                code = node.child(node.push_farther(mask, &entry, &mut stack, &mut sp));
+                continue 'visit;
+            }
+        } else {
+            let (kind, start, count) = decode_leaf(code);
+            prims += count as u64;
+            if kind == PrimKind::Triangle {
+                let tri = *consts.triangle();
+                let cols = cols.get_or_insert_with(|| scene.triangles.columns(tri.axes));
+                c.triangles4(scene, start as usize, count as usize, &tri, cols, t_min);
+            } else {
+                let range = start as usize..(start + count) as usize;
+                c.range(scene, kind, range, consts, t_min);
+            }
+        }
+        // Pop the next node still nearer than the best hit.
+        loop {
+            if sp == 0 {
+                break 'visit;
+            }
+            sp -= 1;
+            // SAFETY: slot `sp` < the highest `sp` reached, all of which were written.
+            let (next, enter) = unsafe { stack[sp].assume_init() };
+            if enter > c.t_max {
+                continue;
+            }
+            code = next;
+            continue 'visit;
+        }
+    }
+    stats.nodes += nodes;
+    stats.prims += prims;
+}
+
+/// Leaves and depth of a collapsed tree.
+#[derive(Clone, Copy, Debug, Default)]
+struct Shape {
+    leaves: u32,
+    depth: u32,
+}
+
+/// Turn the binary subtree at `node` into `N::WIDTH`-wide nodes appended to `nodes`
+/// (pre-order, so the layout is deterministic) and return its code. `position`: each
+/// reference's index in its kind's reordered pool (`None`: the reference's own index).
+fn collapse<N: Wide>(
+    nodes: &mut Vec<N>,
+    tree: &BuildTree,
+    node: NodeId,
+    position: Option<&[u32]>,
+    depth: u32,
+    shape: &mut Shape,
+) -> u32 {
+    let Some(children) = tree.children(node) else {
+        let leaf = tree.node(node);
+        shape.leaves += 1;
+        shape.depth = shape.depth.max(depth);
+        let first = leaf.first_or_right;
+        let start = position.map_or(first, |p| p[first as usize]);
+        return encode_leaf(leaf.kind, start, leaf.count as u32);
+    };
+    // Open the largest inner child until there are `WIDTH` (of equal areas the last, as
+    // `Iterator::max_by` picks). An array, not a `Vec` per node.
+    let mut kids = [BuildTree::ROOT; 8];
+    kids[..2].copy_from_slice(&children);
+    let mut len = 2;
+    while len < N::WIDTH {
+        let mut widest: Option<(usize, f32)> = None;
+        for (i, &k) in kids[..len].iter().enumerate() {
+            if tree.children(k).is_some() {
+                let area = tree.node(k).bounds.surface_area();
+                if widest.is_none_or(|(_, w)| area.total_cmp(&w).is_ge()) {
+                    widest = Some((i, area));
+                }
+            }
+        }
+        let Some((i, _)) = widest else { break };
+        let Some([l, r]) = tree.children(kids[i]) else {
+            break;
+        };
+        kids.copy_within(i + 1..len, i + 2);
+        kids[i] = l;
+        kids[i + 1] = r;
+        len += 1;
+    }
+    let index = nodes.len();
+    nodes.push(N::EMPTY);
+    let mut n = N::EMPTY;
+    for (slot, &kid) in kids[..len].iter().enumerate() {
+        let code = collapse(nodes, tree, kid, position, depth + 1, shape);
+        n.set_child(slot, tree.node(kid).bounds, code);
+    }
+    nodes[index] = n;
+    index as u32
 }
 
 /// Of the children of `node` in `mask` (at least one), push all but the nearest by

@@ -95,9 +95,10 @@ impl Accel {
                     }
                 };
                 format!(
-                    "4-wide BVH over {} ({} nodes, {} leaves, depth {}); tested in a loop beside it: {}",
+                    "4-wide BVH over {} ({} nodes, and {} 8-wide for single rays; {} leaves, depth {}); tested in a loop beside it: {}",
                     list(true),
                     b.nodes.len(),
+                    b.nodes8.len(),
                     b.leaves,
                     b.depth,
                     list(false)

@@ -1,0 +1,226 @@
+//! 8-wide nodes for single rays. The same binary tree as the 4-wide nodes, collapsed to
+//! eight children a node (the same leaves): a ray descends about two thirds as many
+//! levels, and a level's box test, one 8-lane AVX pass, costs about what a 4-wide one
+//! does. A single ray's traversal is one chain of dependent steps (load a node, test its
+//! boxes, pick the nearest child, load it), so fewer levels is a shorter chain. Packets
+//! keep the 4-wide nodes: their lanes are the rays, not the children.
+
+use super::{plane_rows, slab, Wide, EMPTY, FAR_SCALE, NEAR_SCALE};
+use crate::geometry::aabb::Aabb;
+use crate::geometry::Ray;
+use crate::lanes::Mask;
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use std::mem::MaybeUninit;
+use wide::f32x8;
+
+/// An 8-wide node: child boxes SoA, then the eight child codes. 256 bytes, four cache
+/// lines; the codes and leaves as `Node4`'s.
+#[repr(C, align(64))]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct Node8 {
+    pub min_x: [f32; 8],
+    pub min_y: [f32; 8],
+    pub min_z: [f32; 8],
+    pub max_x: [f32; 8],
+    pub max_y: [f32; 8],
+    pub max_z: [f32; 8],
+    /// Inner node index (into the 8-wide nodes), a leaf code or `EMPTY`.
+    pub child: [u32; 8],
+    pub _pad: [u32; 8],
+}
+
+const _: () = assert!(std::mem::size_of::<Node8>() == 256);
+
+impl Node8 {
+    /// Row `r` of the node seen as `[[f32; 8]; 8]`, as `Node4::row`.
+    #[inline(always)]
+    fn row(&self, r: usize) -> [f32; 8] {
+        let rows: &[[f32; 8]; 8] = bytemuck::cast_ref(self);
+        rows[r & 7]
+    }
+
+    /// The box of child `i` as (min, max) corners.
+    pub fn child_box(&self, i: usize) -> ([f32; 3], [f32; 3]) {
+        (
+            [self.min_x[i], self.min_y[i], self.min_z[i]],
+            [self.max_x[i], self.max_y[i], self.max_z[i]],
+        )
+    }
+}
+
+/// `BoxRay` in eight lanes: one ray against a node's eight children.
+#[derive(Clone, Copy, Debug)]
+pub struct BoxRay8 {
+    origin: [f32x8; 3],
+    inv_near: [f32x8; 3],
+    inv_far: [f32x8; 3],
+    near_row: [usize; 3],
+    far_row: [usize; 3],
+}
+
+impl BoxRay8 {
+    /// From the reciprocal direction `inv` = 1/d, as `BoxRay::from_inv`.
+    #[inline(always)]
+    pub(super) fn from_inv(ray: &Ray, inv: Vec3) -> Self {
+        let near = inv * NEAR_SCALE;
+        let far = inv * FAR_SCALE;
+        let (near_row, far_row) = plane_rows([
+            inv.x.is_sign_negative() as usize,
+            inv.y.is_sign_negative() as usize,
+            inv.z.is_sign_negative() as usize,
+        ]);
+        let o = ray.origin;
+        Self {
+            origin: [f32x8::splat(o.x), f32x8::splat(o.y), f32x8::splat(o.z)],
+            inv_near: [
+                f32x8::splat(near.x),
+                f32x8::splat(near.y),
+                f32x8::splat(near.z),
+            ],
+            inv_far: [
+                f32x8::splat(far.x),
+                f32x8::splat(far.y),
+                f32x8::splat(far.z),
+            ],
+            near_row,
+            far_row,
+        }
+    }
+}
+
+impl Wide for Node8 {
+    const WIDTH: usize = 8;
+    const EMPTY: Self = Node8 {
+        min_x: [f32::INFINITY; 8],
+        min_y: [f32::INFINITY; 8],
+        min_z: [f32::INFINITY; 8],
+        max_x: [f32::NEG_INFINITY; 8],
+        max_y: [f32::NEG_INFINITY; 8],
+        max_z: [f32::NEG_INFINITY; 8],
+        child: [EMPTY; 8],
+        _pad: [0; 8],
+    };
+    type Ray = BoxRay8;
+    type Entries = [f32; 8];
+
+    fn set_child(&mut self, i: usize, b: Aabb, code: u32) {
+        self.min_x[i] = b.min.x;
+        self.min_y[i] = b.min.y;
+        self.min_z[i] = b.min.z;
+        self.max_x[i] = b.max.x;
+        self.max_y[i] = b.max.y;
+        self.max_z[i] = b.max.z;
+        self.child[i] = code;
+    }
+
+    /// `BoxRay::test` on eight children.
+    #[inline(always)]
+    fn test(&self, ray: &BoxRay8, t_min: f32, t_max: f32) -> ([f32; 8], u32) {
+        let row = |r: usize| f32x8::from(self.row(r));
+        let (enter, hit) = slab(
+            ray.near_row.map(row),
+            ray.far_row.map(row),
+            ray.origin,
+            ray.inv_near,
+            ray.inv_far,
+            f32x8::splat(t_min),
+            f32x8::splat(t_max),
+        );
+        (enter.to_array(), hit.bits())
+    }
+
+    #[inline(always)]
+    fn child(&self, i: usize) -> u32 {
+        self.child[i & 7]
+    }
+
+    #[inline(always)]
+    fn push_farther(
+        &self,
+        mask: u32,
+        e: &[f32; 8],
+        stack: &mut [MaybeUninit<(u32, f32)>],
+        sp: &mut usize,
+    ) -> usize {
+        let keys = nearest_first8(mask, e);
+        let k = mask.count_ones() as usize;
+        for &key in keys[1..k].iter().rev() {
+            let s = (key & 7) as usize;
+            stack[*sp].write((self.child[s], e[s]));
+            *sp += 1;
+        }
+        (keys[0] & 7) as usize
+    }
+}
+
+/// `nearest_first` for eight slots: the entry's bits with the slot in the low three.
+#[inline(always)]
+fn nearest_first8(mask: u32, e: &[f32; 8]) -> [u32; 8] {
+    sort8(std::array::from_fn(|s| {
+        if mask >> s & 1 != 0 {
+            e[s].to_bits() & !7 | s as u32
+        } else {
+            u32::MAX
+        }
+    }))
+}
+
+/// Eight keys in ascending order: the 19 compare-exchanges of the optimal sorting
+/// network for eight (Knuth, TAOCP vol. 3, 5.3.4), each a min and a max (conditional
+/// moves, no branches). Written out: as a loop over a table of pairs the compiler kept
+/// the loop, copying the table to the stack and checking both indices at every step.
+#[inline(always)]
+fn sort8(mut k: [u32; 8]) -> [u32; 8] {
+    let mut exchange = |a: usize, b: usize| {
+        let (x, y) = (k[a], k[b]);
+        k[a] = x.min(y);
+        k[b] = x.max(y);
+    };
+    exchange(0, 2);
+    exchange(1, 3);
+    exchange(4, 6);
+    exchange(5, 7);
+    exchange(0, 4);
+    exchange(1, 5);
+    exchange(2, 6);
+    exchange(3, 7);
+    exchange(0, 1);
+    exchange(2, 3);
+    exchange(4, 5);
+    exchange(6, 7);
+    exchange(2, 4);
+    exchange(3, 5);
+    exchange(1, 4);
+    exchange(3, 6);
+    exchange(1, 2);
+    exchange(3, 4);
+    exchange(5, 6);
+    k
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// By the 0-1 principle, a network that sorts every sequence of zeros and ones
+    /// sorts every sequence.
+    #[test]
+    fn sort8_sorts_every_zero_one_sequence() {
+        for bits in 0u32..256 {
+            let k: [u32; 8] = std::array::from_fn(|i| bits >> i & 1);
+            let mut want = k;
+            want.sort();
+            assert_eq!(sort8(k), want, "{bits:08b}");
+        }
+    }
+
+    #[test]
+    fn nearest_first8_orders_the_masked_slots() {
+        let e = [5.0, 1.0, 7.0, 3.0, 2.0, 8.0, 0.5, 4.0];
+        let keys = nearest_first8(0b1101_0110, &e);
+        let slots: Vec<u32> = keys[..5].iter().map(|k| k & 7).collect();
+        assert_eq!(slots, [6, 1, 4, 7, 2]);
+        assert!(keys[5..].iter().all(|&k| k == u32::MAX));
+    }
+}
