@@ -35,7 +35,7 @@ const _: () = assert!(std::mem::size_of::<Node8>() == 256);
 impl Node8 {
     /// Row `r` of the node seen as `[[f32; 8]; 8]`, as `Node4::row`.
     #[inline(always)]
-    fn row(&self, r: usize) -> [f32; 8] {
+    pub(crate) fn row(&self, r: usize) -> [f32; 8] {
         let rows: &[[f32; 8]; 8] = bytemuck::cast_ref(self);
         rows[r & 7]
     }
