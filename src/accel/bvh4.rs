@@ -377,7 +377,7 @@ impl<'r> RayConsts<'r> {
             sphere,
             triangle: None,
         };
-        (consts, BoxRay8::from_inv(ray, q.truncate()))
+        (consts, BoxRay8::from_inv(ray, q))
     }
 
     #[inline(always)]
