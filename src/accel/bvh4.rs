@@ -40,7 +40,9 @@ pub(crate) trait Wide: Copy {
     fn test(&self, ray: &Self::Ray, t_min: f32, t_max: f32) -> (Self::Entries, u32);
     /// Child `i`'s code (`i` < `WIDTH`).
     fn child(&self, i: usize) -> u32;
-    /// `push_farther` on this node.
+    /// Of the children in `mask` (at least one), push all but the nearest by their
+    /// entries `e` (positive) onto `stack` at `sp`, farthest first, with their entries,
+    /// and return the nearest's slot (`push_keys` on `nearest_first`'s keys).
     fn push_farther(
         &self,
         mask: u32,
@@ -79,7 +81,7 @@ impl Wide for Node4 {
         stack: &mut [MaybeUninit<(u32, f32)>],
         sp: &mut usize,
     ) -> usize {
-        push_farther(self, mask, e, stack, sp)
+        push_keys(nearest_first(mask, e), mask, &self.child, e, stack, sp)
     }
 }
 
@@ -1092,25 +1094,25 @@ fn collapse<N: Wide>(
     index as u32
 }
 
-/// Of the children of `node` in `mask` (at least one), push all but the nearest by
-/// their entries `e` (positive) onto `stack` at `sp`, farthest first, with their
-/// entries, and return the nearest's slot (`nearest_first`'s order).
+/// `Wide::push_farther` of a `W`-wide node with children `child`, given the keys of
+/// the children in `mask` nearest first (the slot in the low bits, `key & (W − 1)`;
+/// `nearest_first`, `node8::nearest_first8`).
 #[inline(always)]
-pub(crate) fn push_farther(
-    node: &Node4,
+pub(crate) fn push_keys<const W: usize>(
+    keys: [u32; W],
     mask: u32,
-    e: &[f32; 4],
+    child: &[u32; W],
+    e: &[f32; W],
     stack: &mut [MaybeUninit<(u32, f32)>],
     sp: &mut usize,
 ) -> usize {
-    let keys = nearest_first(mask, e);
     let k = mask.count_ones() as usize;
     for &key in keys[1..k].iter().rev() {
-        let s = (key & 3) as usize;
-        stack[*sp].write((node.child[s], e[s]));
+        let s = key as usize & (W - 1);
+        stack[*sp].write((child[s], e[s]));
         *sp += 1;
     }
-    (keys[0] & 3) as usize
+    keys[0] as usize & (W - 1)
 }
 
 /// The slots of `mask` nearest first by their entry distances `e` (positive, so their

@@ -5,7 +5,7 @@
 //! boxes, pick the nearest child, load it), so fewer levels is a shorter chain. Packets
 //! keep the 4-wide nodes: their lanes are the rays, not the children.
 
-use super::{slab, Wide, EMPTY, FAR_SCALE, NEAR_SCALE};
+use super::{push_keys, slab, Wide, EMPTY, FAR_SCALE, NEAR_SCALE};
 use crate::geometry::aabb::Aabb;
 use crate::geometry::Ray;
 use crate::lanes::Mask;
@@ -159,14 +159,7 @@ impl Wide for Node8 {
         stack: &mut [MaybeUninit<(u32, f32)>],
         sp: &mut usize,
     ) -> usize {
-        let keys = nearest_first8(mask, e);
-        let k = mask.count_ones() as usize;
-        for &key in keys[1..k].iter().rev() {
-            let s = (key & 7) as usize;
-            stack[*sp].write((self.child[s], e[s]));
-            *sp += 1;
-        }
-        (keys[0] & 7) as usize
+        push_keys(nearest_first8(mask, e), mask, &self.child, e, stack, sp)
     }
 }
 
