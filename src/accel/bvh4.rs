@@ -23,18 +23,16 @@ use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 mod node8;
-pub use node8::{BoxRay8, Node8};
+pub use node8::BoxRay8;
 
 /// A node width of the scalar traversal (`Bvh4::traverse`): `Node4`, which packets trace
 /// too, and `Node8`, for single rays.
 pub(crate) trait Wide: Copy {
     const WIDTH: usize;
-    const EMPTY: Self;
     /// The per-ray constants of the box test.
     type Ray;
     /// The children's entry distances.
     type Entries: Copy + AsRef<[f32]>;
-    fn set_child(&mut self, i: usize, b: Aabb, code: u32);
     /// Entry distances of the children and the mask of those overlapping
     /// `[t_min, t_max]` (`BoxRay::test`).
     fn test(&self, ray: &Self::Ray, t_min: f32, t_max: f32) -> (Self::Entries, u32);
@@ -54,13 +52,8 @@ pub(crate) trait Wide: Copy {
 
 impl Wide for Node4 {
     const WIDTH: usize = 4;
-    const EMPTY: Self = Node4::EMPTY;
     type Ray = BoxRay;
     type Entries = [f32; 4];
-
-    fn set_child(&mut self, i: usize, b: Aabb, code: u32) {
-        Node4::set_child(self, i, b, code)
-    }
 
     #[inline(always)]
     fn test(&self, ray: &BoxRay, t_min: f32, t_max: f32) -> ([f32; 4], u32) {
@@ -85,22 +78,37 @@ impl Wide for Node4 {
     }
 }
 
-/// A 4-wide node: child boxes SoA, then the four child codes. 128 bytes, two cache lines.
+/// A node of `W` children: their boxes structure-of-arrays, then their codes. `Node4`
+/// (128 bytes, two cache lines) serves packets; `Node8` (256 bytes) single rays and
+/// camera packets' frustums.
 #[repr(C, align(64))]
-#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct Node4 {
-    pub min_x: [f32; 4],
-    pub min_y: [f32; 4],
-    pub min_z: [f32; 4],
-    pub max_x: [f32; 4],
-    pub max_y: [f32; 4],
-    pub max_z: [f32; 4],
-    /// Inner node index, a leaf code (`LEAF` bit set) or `EMPTY`.
-    pub child: [u32; 4],
-    pub _pad: [u32; 4],
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Node<const W: usize> {
+    pub min_x: [f32; W],
+    pub min_y: [f32; W],
+    pub min_z: [f32; W],
+    pub max_x: [f32; W],
+    pub max_y: [f32; W],
+    pub max_z: [f32; W],
+    /// Inner node index (into the nodes of this width), a leaf code (`LEAF` bit set) or
+    /// `EMPTY`.
+    pub child: [u32; W],
+    pub _pad: [u32; W],
 }
 
+pub type Node4 = Node<4>;
+pub type Node8 = Node<8>;
+
 const _: () = assert!(std::mem::size_of::<Node4>() == 128);
+const _: () = assert!(std::mem::size_of::<Node8>() == 256);
+
+// SAFETY: `repr(C)`, eight arrays of `W` 4-byte plain numbers (any bit pattern valid)
+// and nothing else; for W = 4 and 8 their 32·W bytes are a multiple of the 64-byte
+// alignment, so there is no padding (both sizes asserted above).
+unsafe impl Zeroable for Node4 {}
+unsafe impl Pod for Node4 {}
+unsafe impl Zeroable for Node8 {}
+unsafe impl Pod for Node8 {}
 
 /// Child codes: bit 31 marks a leaf; bits 29–30 its kind, 27–28 its count − 1, 0–26 the
 /// first primitive in the kind's pool.
@@ -134,24 +142,28 @@ pub fn decode_leaf(code: u32) -> (PrimKind, u32, u32) {
     )
 }
 
-impl Node4 {
-    pub const EMPTY: Node4 = Node4 {
-        min_x: [f32::INFINITY; 4],
-        min_y: [f32::INFINITY; 4],
-        min_z: [f32::INFINITY; 4],
-        max_x: [f32::NEG_INFINITY; 4],
-        max_y: [f32::NEG_INFINITY; 4],
-        max_z: [f32::NEG_INFINITY; 4],
-        child: [EMPTY; 4],
-        _pad: [0; 4],
+impl<const W: usize> Node<W> {
+    pub const EMPTY: Self = Node {
+        min_x: [f32::INFINITY; W],
+        min_y: [f32::INFINITY; W],
+        min_z: [f32::INFINITY; W],
+        max_x: [f32::NEG_INFINITY; W],
+        max_y: [f32::NEG_INFINITY; W],
+        max_z: [f32::NEG_INFINITY; W],
+        child: [EMPTY; W],
+        _pad: [0; W],
     };
 
-    /// Row `r` of the node seen as `[[f32; 4]; 8]` (min x, y, z, max x, y, z: one plane
+    /// Row `r` of the node seen as `[[f32; W]; 8]` (min x, y, z, max x, y, z: one plane
     /// of each child per row), as the box tests pick the near and far planes by row.
     /// `& 7`: the rows are 0..6, and the mask lets the compiler drop the bounds check.
     #[inline(always)]
-    pub(crate) fn row(&self, r: usize) -> [f32; 4] {
-        let rows: &[[f32; 4]; 8] = bytemuck::cast_ref(self);
+    pub(crate) fn row(&self, r: usize) -> [f32; W]
+    where
+        Self: Pod,
+        [[f32; W]; 8]: Pod,
+    {
+        let rows: &[[f32; W]; 8] = bytemuck::cast_ref(self);
         rows[r & 7]
     }
 
@@ -1040,11 +1052,11 @@ struct Shape {
     depth: u32,
 }
 
-/// Turn the binary subtree at `node` into `N::WIDTH`-wide nodes appended to `nodes`
+/// Turn the binary subtree at `node` into `W`-wide nodes appended to `nodes`
 /// (pre-order, so the layout is deterministic) and return its code. `position`: each
 /// reference's index in its kind's reordered pool (`None`: the reference's own index).
-fn collapse<N: Wide>(
-    nodes: &mut Vec<N>,
+fn collapse<const W: usize>(
+    nodes: &mut Vec<Node<W>>,
     tree: &BuildTree,
     node: NodeId,
     position: Option<&[u32]>,
@@ -1064,7 +1076,7 @@ fn collapse<N: Wide>(
     let mut kids = [BuildTree::ROOT; 8];
     kids[..2].copy_from_slice(&children);
     let mut len = 2;
-    while len < N::WIDTH {
+    while len < W {
         let mut widest: Option<(usize, f32)> = None;
         for (i, &k) in kids[..len].iter().enumerate() {
             if tree.children(k).is_some() {
@@ -1084,8 +1096,8 @@ fn collapse<N: Wide>(
         len += 1;
     }
     let index = nodes.len();
-    nodes.push(N::EMPTY);
-    let mut n = N::EMPTY;
+    nodes.push(Node::EMPTY);
+    let mut n = Node::EMPTY;
     for (slot, &kid) in kids[..len].iter().enumerate() {
         let code = collapse(nodes, tree, kid, position, depth + 1, shape);
         n.set_child(slot, tree.node(kid).bounds, code);

@@ -2,52 +2,16 @@
 //! eight children a node (the same leaves): a ray descends about two thirds as many
 //! levels, and a level's box test, one 8-lane AVX pass, costs about what a 4-wide one
 //! does. A single ray's traversal is one chain of dependent steps (load a node, test its
-//! boxes, pick the nearest child, load it), so fewer levels is a shorter chain. Packets
-//! keep the 4-wide nodes: their lanes are the rays, not the children.
+//! boxes, pick the nearest child, load it), so fewer levels is a shorter chain. Camera
+//! packets' frustums descend them too (`packet::Frustum`); other packets keep the 4-wide
+//! nodes, whose lanes are the rays, not the children. `Node8` itself is `bvh4::Node<8>`.
 
-use super::{push_keys, slab, Wide, EMPTY, FAR_SCALE, NEAR_SCALE};
-use crate::geometry::aabb::Aabb;
+use super::{push_keys, slab, Node8, Wide, FAR_SCALE, NEAR_SCALE};
 use crate::geometry::Ray;
 use crate::lanes::Mask;
-use bytemuck::{Pod, Zeroable};
 use glam::Vec4;
 use std::mem::MaybeUninit;
 use wide::{f32x8, i32x8, CmpEq};
-
-/// An 8-wide node: child boxes SoA, then the eight child codes. 256 bytes, four cache
-/// lines; the codes and leaves as `Node4`'s.
-#[repr(C, align(64))]
-#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct Node8 {
-    pub min_x: [f32; 8],
-    pub min_y: [f32; 8],
-    pub min_z: [f32; 8],
-    pub max_x: [f32; 8],
-    pub max_y: [f32; 8],
-    pub max_z: [f32; 8],
-    /// Inner node index (into the 8-wide nodes), a leaf code or `EMPTY`.
-    pub child: [u32; 8],
-    pub _pad: [u32; 8],
-}
-
-const _: () = assert!(std::mem::size_of::<Node8>() == 256);
-
-impl Node8 {
-    /// Row `r` of the node seen as `[[f32; 8]; 8]`, as `Node4::row`.
-    #[inline(always)]
-    pub(crate) fn row(&self, r: usize) -> [f32; 8] {
-        let rows: &[[f32; 8]; 8] = bytemuck::cast_ref(self);
-        rows[r & 7]
-    }
-
-    /// The box of child `i` as (min, max) corners.
-    pub fn child_box(&self, i: usize) -> ([f32; 3], [f32; 3]) {
-        (
-            [self.min_x[i], self.min_y[i], self.min_z[i]],
-            [self.max_x[i], self.max_y[i], self.max_z[i]],
-        )
-    }
-}
 
 /// `BoxRay` in eight lanes: one ray against a node's eight children.
 #[derive(Clone, Copy, Debug)]
@@ -107,28 +71,8 @@ const OCTANT_ROWS: [([usize; 3], [usize; 3]); 8] = {
 
 impl Wide for Node8 {
     const WIDTH: usize = 8;
-    const EMPTY: Self = Node8 {
-        min_x: [f32::INFINITY; 8],
-        min_y: [f32::INFINITY; 8],
-        min_z: [f32::INFINITY; 8],
-        max_x: [f32::NEG_INFINITY; 8],
-        max_y: [f32::NEG_INFINITY; 8],
-        max_z: [f32::NEG_INFINITY; 8],
-        child: [EMPTY; 8],
-        _pad: [0; 8],
-    };
     type Ray = BoxRay8;
     type Entries = [f32; 8];
-
-    fn set_child(&mut self, i: usize, b: Aabb, code: u32) {
-        self.min_x[i] = b.min.x;
-        self.min_y[i] = b.min.y;
-        self.min_z[i] = b.min.z;
-        self.max_x[i] = b.max.x;
-        self.max_y[i] = b.max.y;
-        self.max_z[i] = b.max.z;
-        self.child[i] = code;
-    }
 
     /// `BoxRay::test` on eight children.
     #[inline(always)]
