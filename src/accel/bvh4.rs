@@ -283,11 +283,15 @@ struct SphereLanes {
 /// axis' near and far planes, for a direction whose axis a is negative when
 /// `negative[a]` is 1: min for a positive direction, max for a negative one.
 #[inline(always)]
-pub(crate) fn plane_rows(negative: [usize; 3]) -> ([usize; 3], [usize; 3]) {
-    (
-        [0, 1, 2].map(|a| a + 3 * negative[a]),
-        [0, 1, 2].map(|a| a + 3 - 3 * negative[a]),
-    )
+pub(crate) const fn plane_rows(negative: [usize; 3]) -> ([usize; 3], [usize; 3]) {
+    let mut rows = ([0; 3], [0; 3]);
+    let mut a = 0;
+    while a < 3 {
+        rows.0[a] = a + 3 * negative[a];
+        rows.1[a] = a + 3 - 3 * negative[a];
+        a += 1;
+    }
+    rows
 }
 
 /// Per-ray constants of the box test.
@@ -1009,8 +1013,8 @@ fn traverse<N: Wide>(
                     code = near;
                     continue 'visit;
                 }
-                // Three or four: sort nearest first (branch-free: `nearest_first`),
-                // push all but the nearest (farthest first).
+                // Three or more: sort nearest first (branch-free: `nearest_first`,
+                // `nearest_first8`), push all but the nearest (farthest first).
                 code = node.child(node.push_farther(mask, &entry, &mut stack, &mut sp));
                 continue 'visit;
             }
@@ -1071,9 +1075,9 @@ fn collapse<const W: usize>(
         let start = position.map_or(first, |p| p[first as usize]);
         return encode_leaf(leaf.kind, start, leaf.count as u32);
     };
-    // Open the largest inner child until there are `WIDTH` (of equal areas the last, as
+    // Open the largest inner child until there are `W` (of equal areas the last, as
     // `Iterator::max_by` picks). An array, not a `Vec` per node.
-    let mut kids = [BuildTree::ROOT; 8];
+    let mut kids = [BuildTree::ROOT; W];
     kids[..2].copy_from_slice(&children);
     let mut len = 2;
     while len < W {

@@ -6,7 +6,7 @@
 //! packets' frustums descend them too (`packet::Frustum`); other packets keep the 4-wide
 //! nodes, whose lanes are the rays, not the children. `Node8` itself is `bvh4::Node<8>`.
 
-use super::{push_keys, slab, Node8, Wide, FAR_SCALE, NEAR_SCALE};
+use super::{plane_rows, push_keys, slab, Node8, Wide, FAR_SCALE, NEAR_SCALE};
 use crate::geometry::Ray;
 use crate::lanes::Mask;
 use glam::Vec4;
@@ -57,13 +57,7 @@ const OCTANT_ROWS: [([usize; 3], [usize; 3]); 8] = {
     let mut table = [([0; 3], [0; 3]); 8];
     let mut octant = 0;
     while octant < 8 {
-        let mut a = 0;
-        while a < 3 {
-            let negative = (octant >> a) & 1;
-            table[octant].0[a] = a + 3 * negative;
-            table[octant].1[a] = a + 3 - 3 * negative;
-            a += 1;
-        }
+        table[octant] = plane_rows([octant & 1, octant >> 1 & 1, octant >> 2 & 1]);
         octant += 1;
     }
     table
