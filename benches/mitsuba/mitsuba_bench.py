@@ -389,6 +389,13 @@ def run_mitsuba(scene, threads, variant, warm, hold_avx2, work, png=None):
     return out
 
 
+def paired(ours, theirs, ratio):
+    """The median over rounds of the ratio of one round's two runs (run one after the
+    other, so they share that moment's load)."""
+    by_round = {r["round"]: r for r in theirs}
+    return median([ratio(o, by_round[o["round"]]) for o in ours if o["round"] in by_round])
+
+
 def median(xs):
     return statistics.median(xs) if xs else float("nan")
 
@@ -490,9 +497,10 @@ def summarize(runs):
     print("Mitsuba llvm_ad_rgb: first render (empty DRJIT_CACHE_DIR, JIT compilation included) and")
     print("warm renders (the median of each process's warm renders); ours vs X = t_X / t_ours,")
     print("ours' render phase against Mitsuba's warm render, ours' process against Mitsuba's first")
-    print("render (Mitsuba's process also imports Python modules: its own column)\n")
+    print("render (Mitsuba's process also imports Python modules: its own column); paired: the")
+    print("median over rounds of each round's ratio; CPU: the processes' CPU time, all threads\n")
     head = ["scene", "T", "ours process", "ours render", "Mitsuba process", "Mitsuba first",
-            "Mitsuba warm", "ours vs warm", "ours process vs first"]
+            "Mitsuba warm", "ours vs warm", "paired", "ours process vs first"]
     if hold:
         head += ["warm, AVX2 8 lanes", "ours vs that"]
     head += ["scalar_rgb", "ours vs scalar_rgb", "CPU s: ours process, Mitsuba warm", "ours vs warm, CPU"]
@@ -512,6 +520,7 @@ def summarize(runs):
             row = [scene, str(t), fmt_range(o_proc), fmt_range(o_rend), fmt_range(m_proc),
                    fmt_range(m_first), fmt_range(m_warm),
                    f"{median(m_warm) / median(o_rend):.2f}x",
+                   f"{paired(ours, llvm, lambda o, m: median(m['warm']) / o['render']):.2f}x",
                    f"{median(m_first) / median(o_proc):.2f}x"]
             if hold:
                 h_warm = [median(r["warm"]) for r in pick(scene, t, "llvm-avx2")]
