@@ -330,7 +330,17 @@ def render_main(args):
     t0 = time.perf_counter()
     scene = mi.load_dict(desc)
     out["load"] = time.perf_counter() - t0
+    jit = args.variant.startswith("llvm")
+    if jit:
+        # Dr.Jit's own account of the first render's kernels: tracing to LLVM IR and
+        # LLVM's compilation (milliseconds), cache misses since the cache dir is empty.
+        dr.set_flag(dr.JitFlag.KernelHistory, True)
     image, out["first"], out["first_cpu"] = timed_render(mi, dr, scene, cam["spp"], 0)
+    if jit:
+        kernels = [k for k in dr.kernel_history() if k["type"] == dr.KernelType.JIT]
+        dr.set_flag(dr.JitFlag.KernelHistory, False)
+        out["compile"] = sum(k["codegen_time"] + k["backend_time"] for k in kernels) / 1000
+        out["compiled_kernels"] = sum(1 for k in kernels if not k["cache_hit"])
     out["warm"], out["warm_cpu"] = [], []
     for _ in range(args.warm):
         _, wall, cpu = timed_render(mi, dr, scene, cam["spp"], 0)
@@ -461,7 +471,8 @@ def run_main(args):
                             line = f"render {r['first']:.3f} s"
                         else:
                             line = (f"process {r['process']:.3f} s, load {r['load']:.3f} s, first "
-                                    f"{r['first']:.3f} s, warm {median(r['warm']):.3f} s")
+                                    f"{r['first']:.3f} s (compilation {r['compile']:.3f} s), "
+                                    f"warm {median(r['warm']):.3f} s")
                         print(f"round {rnd} {scene:8} T={t} {kind:9} {line} (load {load:.2f})", flush=True)
     finally:
         log.close()
@@ -494,13 +505,14 @@ def summarize(runs):
     rounds = max(r["round"] for r in runs)
     print(f"\nmedians over {rounds} rounds, seconds (range); load average {min(loads):.2f}-{max(loads):.2f}")
     print("ours: raytracer SCENE --threads T --packet-width 8 --sampler independent -q --report")
-    print("Mitsuba llvm_ad_rgb: first render (empty DRJIT_CACHE_DIR, JIT compilation included) and")
+    print("Mitsuba llvm_ad_rgb: first render (empty DRJIT_CACHE_DIR, JIT compilation included, and")
+    print("what Dr.Jit's kernel history counts of it: tracing to LLVM IR and LLVM's compilation) and")
     print("warm renders (the median of each process's warm renders); ours vs X = t_X / t_ours,")
     print("ours' render phase against Mitsuba's warm render, ours' process against Mitsuba's first")
     print("render (Mitsuba's process also imports Python modules: its own column); paired: the")
     print("median over rounds of each round's ratio; CPU: the processes' CPU time, all threads\n")
     head = ["scene", "T", "ours process", "ours render", "Mitsuba process", "Mitsuba first",
-            "Mitsuba warm", "ours vs warm", "paired", "ours process vs first"]
+            "of which compilation", "Mitsuba warm", "ours vs warm", "paired", "ours process vs first"]
     if hold:
         head += ["warm, AVX2 8 lanes", "ours vs that"]
     head += ["scalar_rgb", "ours vs scalar_rgb", "CPU s: ours process, Mitsuba warm", "ours vs warm, CPU"]
@@ -517,8 +529,9 @@ def summarize(runs):
             m_first = [r["first"] for r in llvm]
             m_warm = [median(r["warm"]) for r in llvm]
             m_cpu = [median(r["warm_cpu"]) for r in llvm]
+            m_compile = [r["compile"] for r in llvm if "compile" in r]
             row = [scene, str(t), fmt_range(o_proc), fmt_range(o_rend), fmt_range(m_proc),
-                   fmt_range(m_first), fmt_range(m_warm),
+                   fmt_range(m_first), fmt_range(m_compile), fmt_range(m_warm),
                    f"{median(m_warm) / median(o_rend):.2f}x",
                    f"{paired(ours, llvm, lambda o, m: median(m['warm']) / o['render']):.2f}x",
                    f"{median(m_first) / median(o_proc):.2f}x"]
