@@ -153,8 +153,8 @@ def bsdf_of(material):
     raise SceneError(f"material type {kind!r} has no Mitsuba counterpart here")
 
 
-def shape_of(mi, obj, scene_dir, look_at):
-    """The Mitsuba shape of an object; a light quad faces the camera's target."""
+def shape_of(mi, obj, scene_dir):
+    """The Mitsuba shape of an object."""
     kind = obj["type"]
     if kind == "sphere":
         return {"type": "sphere", "center": obj["center"], "radius": float(obj["radius"])}
@@ -240,12 +240,12 @@ def mitsuba_scene(mi, name):
                 area = math.sqrt(dot(cross(obj["u"], obj["v"]), cross(obj["u"], obj["v"])))
             else:
                 raise SceneError(f"object {i}: a {obj['type']} light is not supported here")
-            shape = shape_of(mi, obj, scene_dir, cam["look_at"])
+            shape = shape_of(mi, obj, scene_dir)
             shape["emitter"] = {"type": "area", "radiance": rgb(scale(e, 0.5 * math.pi * d2 / area))}
             shape["bsdf"] = {"type": "diffuse", "reflectance": rgb([0, 0, 0])}
             area_lights += 1
         else:
-            shape = shape_of(mi, obj, scene_dir, cam["look_at"])
+            shape = shape_of(mi, obj, scene_dir)
             shape["bsdf"] = bsdf_of(material)
         scene[f"object_{i}"] = shape
 
