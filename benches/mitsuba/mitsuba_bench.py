@@ -423,10 +423,20 @@ def run_main(args):
         return 2
     scenes = args.scenes.split(",")
     threads = [int(t) for t in args.threads.split(",")]
+    # Images, reports and Dr.Jit caches of the runs; removed at the end, whatever happens.
     work = tempfile.mkdtemp(prefix="raytracer-vs-mitsuba-")
-    log_path = args.log or os.path.join(work, "log.jsonl")
-    log = open(log_path, "a")
+    try:
+        runs = measure(args, raytracer, scenes, threads, work)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    if args.log:
+        print(f"\nevery run: {args.log}")
+    summarize(runs)
+    return 0
 
+
+def measure(args, raytracer, scenes, threads, work):
+    """Every run of every round, in order, each printed as it ends."""
     # Whether holding Dr.Jit to AVX2 and 8 lanes changes anything on this CPU.
     probe = run_mitsuba(scenes[0], 1, "llvm_ad_rgb", 0, False, work)
     target = probe["target"]
@@ -439,6 +449,7 @@ def run_main(args):
           + ("" if hold else " (so no runs held to AVX2 and 8 lanes: they would be the same)"),
           flush=True)
 
+    log = open(args.log, "a") if args.log else None
     runs = []
     try:
         for rnd in range(1, args.rounds + 1):
@@ -463,8 +474,9 @@ def run_main(args):
                             r = run_mitsuba(scene, t, "llvm_ad_rgb", args.warm, held, work, png)
                         r.update(round=rnd, scene=scene, threads=t, kind=kind, loadavg=load)
                         runs.append(r)
-                        log.write(json.dumps(r) + "\n")
-                        log.flush()
+                        if log:
+                            log.write(json.dumps(r) + "\n")
+                            log.flush()
                         if kind == "ours":
                             line = f"process {r['process']:.3f} s, render {r['render']:.3f} s"
                         elif kind == "scalar":
@@ -475,12 +487,9 @@ def run_main(args):
                                     f"warm {median(r['warm']):.3f} s")
                         print(f"round {rnd} {scene:8} T={t} {kind:9} {line} (load {load:.2f})", flush=True)
     finally:
-        log.close()
-    print(f"\nevery run: {log_path}")
-    summarize(runs)
-    if not args.log:
-        shutil.rmtree(work, ignore_errors=True)
-    return 0
+        if log:
+            log.close()
+    return runs
 
 
 def summary_main(args):
@@ -560,7 +569,7 @@ def main():
     p.add_argument("--hold-avx2", choices=["auto", "yes", "no"], default="auto",
                    help="also run Mitsuba held to AVX2 and 8 lanes (auto: if its default differs)")
     p.add_argument("--pictures", help="write Mitsuba's first-round renders here as PNG")
-    p.add_argument("--log", help="append every run as a JSON line to this file (kept)")
+    p.add_argument("--log", help="append every run as a JSON line to this file")
     p = cmds.add_parser("render", help="one Mitsuba process: load, first and warm renders; JSON")
     p.add_argument("scene")
     p.add_argument("--variant", default="llvm_ad_rgb")

@@ -26,6 +26,11 @@ if ! [ -e "$libllvm" ]; then
     exit 2
 fi
 
+# Importing Dr.Jit makes its cache directory (by default ~/.drjit): a temporary one here.
+DRJIT_CACHE_DIR=$(mktemp -d)
+export DRJIT_CACHE_DIR
+trap 'rm -rf "$DRJIT_CACHE_DIR"' EXIT
+
 if ! [ -x "$venv/bin/python" ]; then
     python3 -m venv "$venv"
 fi
