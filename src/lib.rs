@@ -6,7 +6,6 @@
 
 pub mod accel;
 pub mod camera;
-pub mod cli;
 pub mod error;
 pub mod generate;
 pub mod geometry;
@@ -18,6 +17,5 @@ pub mod output;
 pub mod render;
 pub mod rng;
 pub mod scene;
-pub mod sweep;
 
 pub use error::{Error, Result};

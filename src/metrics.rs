@@ -16,7 +16,7 @@ use glam::Vec3;
 pub const REL_MSE_EPSILON: f64 = 0.01;
 
 /// The error of one image against a reference.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Errors {
     pub mse: f64,
     pub rmse: f64,
@@ -81,6 +81,17 @@ pub fn errors(image: &Film, reference: &Film) -> Errors {
         rel_mse: rel_mse(&image.pixels, &reference.pixels),
         psnr: psnr(&image.pixels, &reference.pixels),
     }
+}
+
+/// Least-squares slope of ln y against ln x.
+pub fn log_log_slope(xy: &[(f64, f64)]) -> f64 {
+    let n = xy.len() as f64;
+    let (lx, ly): (Vec<f64>, Vec<f64>) = xy.iter().map(|&(x, y)| (x.ln(), y.ln())).unzip();
+    let mx = lx.iter().sum::<f64>() / n;
+    let my = ly.iter().sum::<f64>() / n;
+    let sxy: f64 = lx.iter().zip(&ly).map(|(x, y)| (x - mx) * (y - my)).sum();
+    let sxx: f64 = lx.iter().map(|x| (x - mx) * (x - mx)).sum();
+    sxy / sxx
 }
 
 #[cfg(test)]
@@ -158,5 +169,13 @@ mod tests {
         assert!(close(e.rmse, e.mse.sqrt()));
         assert!(close(e.rel_mse, 4.0 * 0.0625 / 0.0725 / 6.0));
         assert!(close(e.psnr, -10.0 * e.mse.log10()));
+    }
+
+    #[test]
+    fn slope_of_a_power_law() {
+        let xy: Vec<(f64, f64)> = (0..6)
+            .map(|i| (2f64.powi(i), 3.0 * 2f64.powi(i).powf(-1.5)))
+            .collect();
+        assert!((log_log_slope(&xy) + 1.5).abs() < 1e-12);
     }
 }

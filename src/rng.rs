@@ -33,8 +33,7 @@ pub fn to_unit(bits: u32) -> f32 {
 /// Every kind is a pure function of (seed, pixel, sample index, dimension) — the
 /// stratified one also of the sample count — so images stay the same for any thread count,
 /// tile order or packet width, and a packet tracer can evaluate it per lane.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum SamplerKind {
     /// Independent hashed numbers: the seed's plain random jitter (the default; its images
     /// are bit for bit those of the renderer before samplers existed).

@@ -8,10 +8,10 @@ mod support;
 
 use raytracer::accel::{Accel, AccelKind};
 use raytracer::metrics;
+use raytracer::metrics::log_log_slope;
 use raytracer::render::{render, Film, RenderSettings};
 use raytracer::rng::SamplerKind;
 use raytracer::scene::Scene;
-use raytracer::sweep::log_log_slope;
 use support::builtin;
 
 const WIDTH: u32 = 32;

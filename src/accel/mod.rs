@@ -20,14 +20,23 @@ use bvh4::Bvh4;
 use linear::{LinearScan, PrimRay};
 use packet::{PacketHits, RayPacket, MAX_WIDTH};
 
-/// The `--accel` choice.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
+/// Which acceleration structure to build.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AccelKind {
     /// Brute force, with the mesh bounding-box pre-test (the seed's algorithm).
     Linear,
     /// 4-wide bounding volume hierarchy (binned SAH).
     Bvh,
+}
+
+impl AccelKind {
+    /// The lowercase name (`linear`, `bvh`).
+    pub fn name(self) -> &'static str {
+        match self {
+            AccelKind::Linear => "linear",
+            AccelKind::Bvh => "bvh",
+        }
+    }
 }
 
 /// Work done by traversals: boxes (nodes) visited and primitives tested.

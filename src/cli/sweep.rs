@@ -1,18 +1,122 @@
-//! Error against run time (`design.md` §8): high-spp reference images, and sweeps that
+//! Error against run time: high-spp reference images, and sweeps that
 //! render a scene at spp = 1, 2, 4, …, for each sampler and packet width, time every
 //! render (median of several runs), measure its error against the reference, and write a
 //! CSV and a log-log SVG chart of error against seconds.
 
-use crate::accel::{Accel, AccelKind};
-use crate::metrics::{self, Errors};
-use crate::output;
-use crate::render::{self, Film, RenderSettings};
-use crate::rng::SamplerKind;
-use crate::scene::{Overrides, Scene};
+use super::options::{ReferenceOptions, SweepOptions};
 use anyhow::{bail, Context};
+use raytracer::accel::{Accel, AccelKind};
+use raytracer::metrics::{self, log_log_slope, Errors};
+use raytracer::output;
+use raytracer::render::{self, Film, RenderSettings};
+use raytracer::rng::SamplerKind;
+use raytracer::scene::{Overrides, Scene};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+/// `raytracer reference`: make a reference on the current pool of `threads` threads.
+pub fn reference(o: &ReferenceOptions, threads: usize) -> anyhow::Result<()> {
+    if o.output_is_default {
+        super::create_parent(&o.output)?;
+    }
+    let info = make_reference(&o.scene, Some(o.width), o.spp, o.sampler, &o.output)?;
+    eprintln!(
+        "reference {}: {}x{}, {} spp {}, {:.1} s on {threads} threads, estimated own RMSE {:.3e} -> {}",
+        info.scene,
+        info.width,
+        info.height,
+        info.spp,
+        info.sampler,
+        info.seconds,
+        info.estimated_mse.sqrt(),
+        o.output.display()
+    );
+    Ok(())
+}
+
+/// `raytracer sweep`: make the reference if it is missing, sweep, write the CSV, the chart
+/// and the summary.
+pub fn sweep(o: &SweepOptions, threads: usize) -> anyhow::Result<()> {
+    std::fs::create_dir_all(&o.out)
+        .with_context(|| format!("cannot create directory {}", o.out.display()))?;
+    let stem = super::scene_stem(&o.scene);
+    let csv_path = o.out.join(format!("{stem}.csv"));
+    let svg_path = o.out.join(format!("{stem}.svg"));
+    let txt_path = o.out.join(format!("{stem}.txt"));
+    for p in [&csv_path, &svg_path, &txt_path] {
+        output::check_writable(p)?;
+    }
+    if !o.reference.exists() {
+        super::create_parent(&o.reference)?;
+        eprintln!(
+            "making the reference {} ({} spp)",
+            o.reference.display(),
+            o.reference_spp
+        );
+        let info = make_reference(
+            &o.scene,
+            Some(o.width),
+            o.reference_spp,
+            SamplerKind::Sobol,
+            &o.reference,
+        )?;
+        eprintln!(
+            "reference: {:.1} s, estimated own RMSE {:.3e}",
+            info.seconds,
+            info.estimated_mse.sqrt()
+        );
+    }
+    let (reference, info) = load_reference(&o.reference)?;
+    let (mut scene, accel) = prepare(&o.scene, Some(o.width))?;
+    let plan = SweepPlan {
+        spp_max: o.spp_max,
+        runs: o.runs,
+        samplers: o.samplers.clone(),
+        packet_widths: o.packet_widths.clone(),
+        seed: o.seed,
+    };
+    eprintln!(
+        "sweep {}: {}x{}, {threads} threads, {} runs a point; reference {} spp, estimated own RMSE {:.3e}",
+        scene.name,
+        scene.camera.width,
+        scene.camera.height,
+        o.runs,
+        info.spp,
+        info.estimated_mse.sqrt()
+    );
+    let points = run_sweep(&mut scene, &accel, &reference, &plan, &mut |p| {
+        eprintln!(
+            "  {:<11} x{} {:>5} spp  {:>8.4} s ({:.4}–{:.4})  RMSE {:.4e}  relMSE {:.4e}  PSNR {:.2} dB",
+            p.sampler.name(),
+            p.packet_width,
+            p.spp,
+            p.seconds,
+            p.seconds_min,
+            p.seconds_max,
+            p.errors.rmse,
+            p.errors.rel_mse,
+            p.errors.psnr
+        )
+    })?;
+    let csv = csv(&scene, &info, threads, &points);
+    let svg = chart(&scene.name, &points, &info);
+    let summary = summary(&points);
+    for (path, text) in [(&csv_path, &csv), (&svg_path, &svg), (&txt_path, &summary)] {
+        output::write_atomically(path, |out| {
+            use std::io::Write;
+            out.write_all(text.as_bytes())
+        })?;
+    }
+    print!("{summary}");
+    eprintln!(
+        "wrote {}, {}, {}",
+        csv_path.display(),
+        svg_path.display(),
+        txt_path.display()
+    );
+    Ok(())
+}
 
 /// The seeds of the two halves of a reference; no sweep uses them, so a reference never
 /// shares numbers with the renders measured against it.
@@ -141,7 +245,7 @@ pub fn load_reference(path: &Path) -> anyhow::Result<(Film, ReferenceInfo)> {
 }
 
 /// One point of a sweep.
-#[derive(Debug, Clone, serde::Serialize)]
+#[derive(Debug, Clone)]
 pub struct Point {
     pub sampler: SamplerKind,
     pub packet_width: u32,
@@ -280,17 +384,6 @@ pub fn csv(scene: &Scene, reference: &ReferenceInfo, threads: usize, points: &[P
         );
     }
     s
-}
-
-/// Least-squares slope of ln y against ln x.
-pub fn log_log_slope(xy: &[(f64, f64)]) -> f64 {
-    let n = xy.len() as f64;
-    let (lx, ly): (Vec<f64>, Vec<f64>) = xy.iter().map(|&(x, y)| (x.ln(), y.ln())).unzip();
-    let mx = lx.iter().sum::<f64>() / n;
-    let my = ly.iter().sum::<f64>() / n;
-    let sxy: f64 = lx.iter().zip(&ly).map(|(x, y)| (x - mx) * (y - my)).sum();
-    let sxx: f64 = lx.iter().map(|x| (x - mx) * (x - mx)).sum();
-    sxy / sxx
 }
 
 /// ln y at ln x on the polyline through `xy` (sorted by x), or `None` outside its range.
@@ -605,14 +698,6 @@ mod tests {
         assert_eq!(spp_steps(1), vec![1]);
         assert_eq!(spp_steps(8), vec![1, 2, 4, 8]);
         assert_eq!(spp_steps(10), vec![1, 2, 4, 8, 10]);
-    }
-
-    #[test]
-    fn slope_of_a_power_law() {
-        let xy: Vec<(f64, f64)> = (0..6)
-            .map(|i| (2f64.powi(i), 3.0 * 2f64.powi(i).powf(-1.5)))
-            .collect();
-        assert!((log_log_slope(&xy) + 1.5).abs() < 1e-12);
     }
 
     #[test]

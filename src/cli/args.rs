@@ -1,0 +1,215 @@
+//! The command line as clap parses it: flags, their ranges and help texts. Nothing here
+//! is checked beyond what clap checks; `options` turns these into validated options.
+
+use clap::{Parser, Subcommand, ValueEnum};
+use raytracer::accel::AccelKind;
+use raytracer::rng::SamplerKind;
+use std::path::PathBuf;
+
+/// `--version` says whether the AVX2 lanes were compiled in (`.cargo/config.toml`).
+const VERSION: &str = if cfg!(target_feature = "avx2") {
+    concat!(env!("CARGO_PKG_VERSION"), " (AVX2 compiled in)")
+} else {
+    concat!(
+        env!("CARGO_PKG_VERSION"),
+        " (without AVX2: 8-wide packets run as two halves)"
+    )
+};
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "raytracer",
+    version = VERSION,
+    about = "A data-oriented SIMD packet ray tracer",
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true
+)]
+pub struct Args {
+    /// Error against time: `reference` and `sweep` (see `raytracer sweep --help`).
+    #[command(subcommand)]
+    pub command: Option<Command>,
+
+    /// A built-in scene name (see --list) or a path to a .toml scene file.
+    #[arg(required_unless_present = "list")]
+    pub scene: Option<String>,
+
+    /// Output image: .png or .ppm (8-bit, gamma 2), .exr (linear f32) [default: <scene>.png]
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+
+    /// Samples per pixel (overrides the scene).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+    pub spp: Option<u32>,
+
+    /// Image width in pixels; the height follows the scene's aspect ratio.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub width: Option<u32>,
+
+    /// Maximum path depth (overrides the scene).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=10000))]
+    pub max_depth: Option<u32>,
+
+    /// Worker threads [default: all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub threads: Option<u32>,
+
+    /// Seed of the random numbers.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+
+    /// How pixel jitter, light samples and bounces are spread: independent random numbers
+    /// (the seed's), stratified (correlated multi-jittered) or Owen-scrambled Sobol.
+    #[arg(long, value_enum, default_value_t = Sampler::Independent)]
+    pub sampler: Sampler,
+
+    /// Rays per packet: 1 (scalar), 4 or 8.
+    #[arg(long, default_value_t = 1, value_parser = parse_packet_width)]
+    pub packet_width: u32,
+
+    /// Trace everything, even what cannot change the image (shadow rays of light
+    /// samples that add nothing, packets outside the scene): to measure what the
+    /// specialisation saves. The image is the same.
+    #[arg(long)]
+    pub no_specialize: bool,
+
+    /// Acceleration structure.
+    #[arg(long, value_enum, default_value_t = Accel::Bvh)]
+    pub accel: Accel,
+
+    /// Print what the acceleration structure holds, its build time, and the boxes
+    /// visited and primitives tested per ray.
+    #[arg(long)]
+    pub stats: bool,
+
+    /// List the built-in scenes and exit.
+    #[arg(long)]
+    pub list: bool,
+
+    /// No progress bar and no summary line.
+    #[arg(short, long)]
+    pub quiet: bool,
+
+    /// Write a JSON report of sizes, timings and ray counts to this file.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+}
+
+/// The error-against-time commands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Render a high-spp reference image (EXR, linear f32) for `sweep`.
+    Reference(ReferenceArgs),
+    /// Render a scene at spp = 1, 2, 4, …, --spp-max for each sampler, time each render and
+    /// measure its error against the reference; write a CSV and an SVG chart.
+    Sweep(SweepArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct ReferenceArgs {
+    /// A built-in scene name or a .toml scene file.
+    pub scene: String,
+    /// Image width (keep it small: the sweep renders at the same width).
+    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub width: u32,
+    /// Samples per pixel of the reference (two halves with different seeds).
+    #[arg(long, default_value_t = 4096, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
+    pub spp: u32,
+    /// Sampler of the reference.
+    #[arg(long, value_enum, default_value_t = Sampler::Sobol)]
+    pub sampler: Sampler,
+    /// Output EXR [default: target/reference/<scene>-w<width>-<spp>spp.exr].
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub threads: Option<u32>,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct SweepArgs {
+    /// A built-in scene name or a .toml scene file.
+    pub scene: String,
+    /// Image width (the reduced size that keeps a sweep to minutes).
+    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub width: u32,
+    /// The largest spp of the sweep (spp = 1, 2, 4, … up to it).
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+    pub spp_max: u32,
+    /// Renders per point; the time is their median.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub runs: u32,
+    /// Samplers to sweep.
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = Sampler::ALL)]
+    pub samplers: Vec<Sampler>,
+    /// Packet widths to sweep: 1, 4 or 8.
+    #[arg(long, value_delimiter = ',', default_values_t = [1u32], value_parser = parse_packet_width)]
+    pub packet_widths: Vec<u32>,
+    /// Seed of the swept renders.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Directory of the CSV (<scene>.csv), chart (<scene>.svg) and summary (<scene>.txt).
+    #[arg(long, default_value = "target/sweep")]
+    pub out: PathBuf,
+    /// Reference EXR (with its .json note beside it); made first if it does not exist
+    /// [default: target/reference/<scene>-w<width>-<reference-spp>spp.exr].
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    /// Samples per pixel of a reference made by the sweep.
+    #[arg(long, default_value_t = 4096, value_parser = clap::value_parser!(u32).range(2..=1 << 20))]
+    pub reference_spp: u32,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub threads: Option<u32>,
+}
+
+/// `--sampler`: the library's `SamplerKind` as the command line spells it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Sampler {
+    /// Independent hashed numbers (the seed's plain random jitter).
+    Independent,
+    /// Correlated multi-jittered sampling (Kensler 2013).
+    Stratified,
+    /// Owen-scrambled Sobol (0,2)-sequence (Burley 2020).
+    Sobol,
+}
+
+impl Sampler {
+    const ALL: [Sampler; 3] = [Sampler::Independent, Sampler::Stratified, Sampler::Sobol];
+}
+
+impl From<Sampler> for SamplerKind {
+    fn from(s: Sampler) -> Self {
+        match s {
+            Sampler::Independent => SamplerKind::Independent,
+            Sampler::Stratified => SamplerKind::Stratified,
+            Sampler::Sobol => SamplerKind::Sobol,
+        }
+    }
+}
+
+/// `--accel`: the library's `AccelKind` as the command line spells it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Accel {
+    /// Brute force, with the mesh bounding-box pre-test (the seed's algorithm).
+    Linear,
+    /// 4-wide bounding volume hierarchy (binned SAH).
+    Bvh,
+}
+
+impl From<Accel> for AccelKind {
+    fn from(a: Accel) -> Self {
+        match a {
+            Accel::Linear => AccelKind::Linear,
+            Accel::Bvh => AccelKind::Bvh,
+        }
+    }
+}
+
+fn parse_packet_width(s: &str) -> Result<u32, String> {
+    match s {
+        "1" => Ok(1),
+        "4" => Ok(4),
+        "8" => Ok(8),
+        _ => Err(format!("must be 1, 4 or 8, got '{s}'")),
+    }
+}

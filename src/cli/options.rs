@@ -1,0 +1,153 @@
+//! Validated options: what the parsed flags mean, checked before any long work (the
+//! output's format and directory, the report's directory), with defaults filled in.
+
+use super::args::{self, Args};
+use super::scene_stem;
+use raytracer::accel::AccelKind;
+use raytracer::output::{self, ImageFormat};
+use raytracer::render::RenderSettings;
+use raytracer::rng::SamplerKind;
+use raytracer::scene::Overrides;
+use std::path::PathBuf;
+
+/// What the command line asks for.
+#[derive(Debug)]
+pub enum Options {
+    /// `--list`: the built-in scenes.
+    List,
+    Render(RenderOptions),
+    Reference(ReferenceOptions),
+    Sweep(SweepOptions),
+}
+
+/// Render one scene to an image.
+#[derive(Debug)]
+pub struct RenderOptions {
+    /// The scene argument: a built-in name or a path.
+    pub scene: String,
+    pub overrides: Overrides,
+    pub accel: AccelKind,
+    pub settings: RenderSettings,
+    pub output: PathBuf,
+    pub report: Option<PathBuf>,
+    pub stats: bool,
+    /// Progress bar, notes and the summary line (off with `--quiet`).
+    pub notes: bool,
+}
+
+/// `raytracer reference`.
+#[derive(Debug)]
+pub struct ReferenceOptions {
+    pub scene: String,
+    pub width: u32,
+    pub spp: u32,
+    pub sampler: SamplerKind,
+    pub output: PathBuf,
+    /// The output is the default one under `target/`, whose directory may be made.
+    pub output_is_default: bool,
+}
+
+/// `raytracer sweep`.
+#[derive(Debug)]
+pub struct SweepOptions {
+    pub scene: String,
+    pub width: u32,
+    pub spp_max: u32,
+    pub runs: u32,
+    pub samplers: Vec<SamplerKind>,
+    pub packet_widths: Vec<u32>,
+    pub seed: u32,
+    pub out: PathBuf,
+    pub reference: PathBuf,
+    pub reference_spp: u32,
+}
+
+/// The options and the worker threads they ask for (`None`: all cores).
+pub fn from_args(args: Args) -> anyhow::Result<(Options, Option<u32>)> {
+    match args.command {
+        Some(args::Command::Reference(r)) => {
+            let threads = r.threads;
+            Ok((Options::Reference(reference(r)?), threads))
+        }
+        Some(args::Command::Sweep(s)) => {
+            let threads = s.threads;
+            Ok((Options::Sweep(sweep(s)), threads))
+        }
+        None if args.list => Ok((Options::List, None)),
+        None => {
+            let threads = args.threads;
+            Ok((Options::Render(render(args)?), threads))
+        }
+    }
+}
+
+fn render(args: Args) -> anyhow::Result<RenderOptions> {
+    let scene = args.scene.unwrap_or_default();
+    let output = args
+        .output
+        .unwrap_or_else(|| PathBuf::from(format!("{}.png", scene_stem(&scene))));
+    ImageFormat::for_path(&output)?;
+    output::check_writable(&output)?;
+    if let Some(report) = &args.report {
+        output::check_writable(report)?;
+    }
+    Ok(RenderOptions {
+        scene,
+        overrides: Overrides {
+            width: args.width,
+            spp: args.spp,
+            max_depth: args.max_depth,
+        },
+        accel: args.accel.into(),
+        settings: RenderSettings {
+            seed: args.seed,
+            packet_width: args.packet_width,
+            specialize: !args.no_specialize,
+            sampler: args.sampler.into(),
+        },
+        output,
+        report: args.report,
+        stats: args.stats,
+        notes: !args.quiet,
+    })
+}
+
+fn reference(r: args::ReferenceArgs) -> anyhow::Result<ReferenceOptions> {
+    let (output, output_is_default) = match r.output {
+        Some(p) => (p, false),
+        None => (default_reference(&r.scene, r.width, r.spp), true),
+    };
+    if ImageFormat::for_path(&output)? != ImageFormat::Exr {
+        anyhow::bail!("{}: a reference is written as .exr", output.display());
+    }
+    Ok(ReferenceOptions {
+        scene: r.scene,
+        width: r.width,
+        spp: r.spp,
+        sampler: r.sampler.into(),
+        output,
+        output_is_default,
+    })
+}
+
+fn sweep(s: args::SweepArgs) -> SweepOptions {
+    let reference = s
+        .reference
+        .unwrap_or_else(|| default_reference(&s.scene, s.width, s.reference_spp));
+    SweepOptions {
+        scene: s.scene,
+        width: s.width,
+        spp_max: s.spp_max,
+        runs: s.runs,
+        samplers: s.samplers.into_iter().map(Into::into).collect(),
+        packet_widths: s.packet_widths,
+        seed: s.seed,
+        out: s.out,
+        reference,
+        reference_spp: s.reference_spp,
+    }
+}
+
+fn default_reference(scene: &str, width: u32, spp: u32) -> PathBuf {
+    super::sweep::reference_path(std::path::Path::new("target/reference"), scene, width, spp)
+}

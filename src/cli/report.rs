@@ -1,0 +1,96 @@
+//! `--report FILE`: sizes, timings and ray counts of a run as JSON, written atomically.
+
+use super::render::{Run, Timeline};
+use raytracer::integrator::RayCounts;
+use raytracer::output;
+use std::path::Path;
+use std::time::Instant;
+
+/// The `--report` JSON.
+#[derive(Debug, serde::Serialize)]
+struct Report<'a> {
+    scene: &'a str,
+    width: u32,
+    height: u32,
+    spp: u32,
+    packet_width: u32,
+    threads: usize,
+    accel: &'static str,
+    specialize: bool,
+    seconds: Seconds,
+    rays: Rays,
+    /// Pixels with a NaN or infinite channel (`Film::non_finite_count`).
+    non_finite_pixels: usize,
+}
+
+#[derive(Debug, serde::Serialize)]
+struct Seconds {
+    load: f64,
+    build: f64,
+    render: f64,
+    write: f64,
+    total: f64,
+}
+
+#[derive(Debug, serde::Serialize)]
+struct Rays {
+    camera: u64,
+    shadow: u64,
+    secondary: u64,
+    total: u64,
+    /// Skipped by specialisation: shadow rays whose sample adds nothing lit or not,
+    /// and packets answered at once (outside the scene's box, or a tile's camera cone
+    /// that meets nothing).
+    shadow_culled: u64,
+    packets_outside: u64,
+    /// Camera packets' tests ruled out by their tile's cone: primitive tests beside the
+    /// tree (one a lane), and tree traversals.
+    cone_prims: u64,
+    cone_trees: u64,
+}
+
+impl From<RayCounts> for Rays {
+    fn from(c: RayCounts) -> Self {
+        Rays {
+            camera: c.camera,
+            shadow: c.shadow,
+            secondary: c.secondary,
+            total: c.total(),
+            shadow_culled: c.shadow_culled,
+            packets_outside: c.packets_outside,
+            cone_prims: c.cone_prims,
+            cone_trees: c.cone_trees,
+        }
+    }
+}
+
+/// Write the report of `run` to `path`.
+pub fn write(path: &Path, run: &Run) -> anyhow::Result<()> {
+    let t = run.timeline;
+    let secs = Timeline::seconds;
+    let report = Report {
+        scene: &run.scene.name,
+        width: run.scene.camera.width,
+        height: run.scene.camera.height,
+        spp: run.scene.spp,
+        packet_width: run.options.settings.packet_width,
+        threads: run.threads,
+        accel: run.accel.kind().name(),
+        specialize: run.options.settings.specialize,
+        seconds: Seconds {
+            load: secs(t.start, t.loaded),
+            build: secs(t.loaded, t.built),
+            render: secs(t.built, t.rendered),
+            write: secs(t.rendered, t.written),
+            total: secs(t.start, Instant::now()),
+        },
+        rays: run.rendered.counts.into(),
+        non_finite_pixels: run.rendered.film.non_finite_count(),
+    };
+    let json = serde_json::to_string_pretty(&report)?;
+    output::write_atomically(path, |out| {
+        use std::io::Write;
+        writeln!(out, "{json}")
+    })?;
+    Ok(())
+}

@@ -1,0 +1,67 @@
+//! `--stats`: what the acceleration structure holds, the rays and the traversal work, what
+//! the scene needs and what specialisation skipped, packet occupancy, non-finite pixels.
+
+use super::render::{Run, Timeline};
+
+/// Print the statistics of `run` on stderr, one `stats:` line each.
+pub fn print(run: &Run) {
+    let (scene, counts) = (run.scene, run.rendered.counts);
+    let settings = &run.options.settings;
+    let t = counts.traversal;
+    let per_ray = |x: u64| x as f64 / counts.total().max(1) as f64;
+    eprintln!("stats: {}", run.accel.describe(scene));
+    eprintln!(
+        "stats: build {:.3} ms",
+        Timeline::seconds(run.timeline.loaded, run.timeline.built) * 1e3
+    );
+    eprintln!(
+        "stats: rays: {} camera, {} shadow, {} secondary; per ray {:.2} boxes visited, {:.2} primitives tested",
+        counts.camera,
+        counts.shadow,
+        counts.secondary,
+        per_ray(t.nodes),
+        per_ray(t.prims)
+    );
+    let f = scene.features;
+    let yes_no = |b: bool| if b { "yes" } else { "no" };
+    eprintln!(
+        "stats: scene needs: path-traced bounces {}, mirror rays {}, shadow rays {} ({} point, {} area lights)",
+        yes_no(f.has_path_traced),
+        yes_no(f.has_mirror),
+        yes_no(f.has_lights()),
+        scene.lights.iter().filter(|l| l.is_point()).count(),
+        scene.lights.iter().filter(|l| !l.is_point()).count(),
+    );
+    let w = settings.packet_width;
+    if !settings.specialize {
+        eprintln!("stats: specialisation off (--no-specialize)");
+    } else {
+        eprintln!(
+            "stats: skipped: {} shadow rays (their light sample adds nothing, lit or not), {} packets that miss everything (the scene's box, or their tile's cone)",
+            counts.shadow_culled, counts.packets_outside
+        );
+        if w > 1 {
+            eprintln!(
+                "stats: skipped by the tiles' camera cones: {} primitive tests beside the tree (lanes), {} camera packets' tree traversals",
+                counts.cone_prims, counts.cone_trees
+            );
+        }
+    }
+    if w > 1 {
+        let pct = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{:.1}%", x * 100.0));
+        let nodes = (t.packet_nodes > 0)
+            .then(|| t.packet_lanes as f64 / (t.packet_nodes * w as u64) as f64);
+        eprintln!(
+            "stats: {w}-wide packets (AVX2 {}): lane occupancy camera {}, shadow {}, mirror {}; at node visits {}",
+            if raytracer::lanes::AVX2 { "on" } else { "off" },
+            pct(counts.camera_packets.occupancy(w)),
+            pct(counts.shadow_packets.occupancy(w)),
+            pct(counts.mirror_packets.occupancy(w)),
+            pct(nodes),
+        );
+    }
+    eprintln!(
+        "stats: non-finite pixels: {}",
+        run.rendered.film.non_finite_count()
+    );
+}
