@@ -36,6 +36,10 @@ pub enum Error {
     #[error("{0}")]
     Options(String),
 
+    /// A packet width other than 1, 4 or 8.
+    #[error("packet width must be 1, 4 or 8, got '{0}'")]
+    PacketWidth(String),
+
     #[error("cannot allocate a {width}x{height} image ({bytes} bytes)")]
     ImageTooLarge {
         width: u32,

@@ -17,5 +17,7 @@ pub mod output;
 pub mod render;
 pub mod rng;
 pub mod scene;
+mod settings;
 
 pub use error::{Error, Result};
+pub use settings::{PacketWidth, RenderSettings};

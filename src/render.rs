@@ -6,8 +6,9 @@ use crate::accel::Accel;
 use crate::error::{Error, Result};
 use crate::integrator::{footprint, RayCounts, Tracer};
 use crate::lanes::{Lane, V3};
-use crate::rng::{Sampler, SamplerKind};
+use crate::rng::Sampler;
 use crate::scene::Scene;
+pub use crate::settings::{PacketWidth, RenderSettings};
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 use wide::f32x8;
@@ -50,35 +51,6 @@ impl Film {
     /// Pixels with a NaN or infinite channel.
     pub fn non_finite_count(&self) -> usize {
         self.pixels.iter().filter(|p| !p.is_finite()).count()
-    }
-}
-
-#[derive(Clone, Copy, Debug)]
-pub struct RenderSettings {
-    pub seed: u32,
-    /// Rays per packet: 1 (the scalar tracer), 4 or 8. The image is the same bits.
-    pub packet_width: u32,
-    /// Skip what the scene does not need (`Tracer::specialize`); the same bits.
-    pub specialize: bool,
-    /// Independent (the default, the seed's numbers), stratified or Sobol.
-    pub sampler: SamplerKind,
-}
-
-impl RenderSettings {
-    /// Seed `seed`, scalar, specialised, independent sampler.
-    pub fn new(seed: u32) -> Self {
-        Self {
-            seed,
-            packet_width: 1,
-            specialize: true,
-            sampler: SamplerKind::default(),
-        }
-    }
-}
-
-impl Default for RenderSettings {
-    fn default() -> Self {
-        Self::new(0)
     }
 }
 
@@ -136,16 +108,16 @@ pub fn render(
 
 fn render_tile(
     tracer: &Tracer,
-    packet_width: u32,
+    packet_width: PacketWidth,
     x0: u32,
     y0: u32,
     x1: u32,
     y1: u32,
 ) -> (Vec<Vec3>, RayCounts) {
     match packet_width {
-        8 => render_tile_packets::<f32x8>(tracer, x0, y0, x1, y1),
-        4 => render_tile_packets::<Vec4>(tracer, x0, y0, x1, y1),
-        _ => render_tile_scalar(tracer, x0, y0, x1, y1),
+        PacketWidth::Eight => render_tile_packets::<f32x8>(tracer, x0, y0, x1, y1),
+        PacketWidth::Four => render_tile_packets::<Vec4>(tracer, x0, y0, x1, y1),
+        PacketWidth::Scalar => render_tile_scalar(tracer, x0, y0, x1, y1),
     }
 }
 

@@ -935,7 +935,11 @@ fn report_json_has_sizes_timings_and_ray_counts() {
     assert_eq!(r["scene"], "spheres");
     let (w, h, spp) = (uint(&r["width"]), uint(&r["height"]), uint(&r["spp"]));
     assert_eq!((w, h, spp), (8, 4, 1));
-    assert_eq!(uint(&r["packet_width"]), 1);
+    // The default: the widest packets the binary was compiled for.
+    assert_eq!(
+        uint(&r["packet_width"]),
+        raytracer::PacketWidth::default().rays() as u64
+    );
     assert_eq!(uint(&r["threads"]), 2);
     assert!(r["accel"].is_string(), "accel: {}", r["accel"]);
     for key in ["load", "build", "render", "write", "total"] {
@@ -1071,6 +1075,8 @@ fn tiny_sweep_writes_csv_chart_and_summary() {
         "ref.exr",
         "--out",
         "sweep",
+        "--packet-widths",
+        "1",
     ])
     .run();
     assert_eq!(run.code, Some(0), "{}", run.stderr);

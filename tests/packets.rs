@@ -16,6 +16,7 @@ use raytracer::render::{render, RenderSettings};
 use raytracer::rng::SamplerKind;
 use raytracer::scene::builtin::SCENES;
 use raytracer::scene::Scene;
+use raytracer::PacketWidth;
 use std::sync::OnceLock;
 use support::{bits, builtin, scene_with_files, Rng};
 use wide::f32x8;
@@ -33,9 +34,9 @@ fn render_counts(
         .unwrap();
     let settings = RenderSettings {
         seed: 7,
-        packet_width: width,
+        packet_width: PacketWidth::try_from(width).unwrap(),
         specialize,
-        ..RenderSettings::default()
+        sampler: SamplerKind::Independent,
     };
     let rendered = pool
         .install(|| render(scene, accel, &settings, &|| {}))
@@ -63,9 +64,15 @@ fn every_sampler_same_bits_at_every_width() {
                 };
                 bits(&render(&scene, &accel, &settings, &|| {}).unwrap().film)
             };
-            let reference = film(1);
-            assert!(film(4) == reference, "{name}, {sampler:?}: 4-wide");
-            assert!(film(8) == reference, "{name}, {sampler:?}: 8-wide");
+            let reference = film(PacketWidth::Scalar);
+            assert!(
+                film(PacketWidth::Four) == reference,
+                "{name}, {sampler:?}: 4-wide"
+            );
+            assert!(
+                film(PacketWidth::Eight) == reference,
+                "{name}, {sampler:?}: 8-wide"
+            );
         }
     }
 }

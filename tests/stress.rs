@@ -1242,12 +1242,12 @@ fn builtin_renders_have_only_finite_pixels() {
     for name in builtin::names() {
         let scene = builtin_scene(name, 64, 4);
         for accel in [AccelKind::Bvh, AccelKind::Linear] {
-            for packet_width in [1, 4, 8] {
+            for packet_width in raytracer::PacketWidth::ALL {
                 let mut scene = scene.clone();
                 let built = Accel::build(&mut scene, accel);
                 let settings = raytracer::render::RenderSettings {
                     packet_width,
-                    ..raytracer::render::RenderSettings::new(7)
+                    ..raytracer::render::RenderSettings::original_sampling(7)
                 };
                 let film = raytracer::render::render(&scene, &built, &settings, &|| {})
                     .unwrap()

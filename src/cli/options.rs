@@ -8,6 +8,7 @@ use raytracer::output::{self, ImageFormat};
 use raytracer::render::RenderSettings;
 use raytracer::rng::SamplerKind;
 use raytracer::scene::Overrides;
+use raytracer::PacketWidth;
 use std::path::PathBuf;
 
 /// What the command line asks for.
@@ -55,7 +56,7 @@ pub struct SweepOptions {
     pub spp_max: u32,
     pub runs: u32,
     pub samplers: Vec<SamplerKind>,
-    pub packet_widths: Vec<u32>,
+    pub packet_widths: Vec<PacketWidth>,
     pub seed: u32,
     pub out: PathBuf,
     pub reference: PathBuf,

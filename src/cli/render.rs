@@ -7,6 +7,7 @@ use raytracer::accel::Accel;
 use raytracer::output;
 use raytracer::render::{self, Rendered};
 use raytracer::scene::Scene;
+use raytracer::PacketWidth;
 use std::io::IsTerminal;
 use std::time::Instant;
 
@@ -40,7 +41,7 @@ pub struct Run<'a> {
 /// Render `o` on the current rayon pool of `threads` threads.
 pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
     let start = Instant::now();
-    if o.settings.packet_width == 8 && !raytracer::lanes::AVX2 && o.notes {
+    if o.settings.packet_width == PacketWidth::Eight && !raytracer::lanes::AVX2 && o.notes {
         eprintln!("note: built without AVX2: 8-wide packets run as two 4-wide halves");
     }
     let mut scene = Scene::load(&o.scene, o.overrides)?;

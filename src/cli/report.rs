@@ -73,7 +73,7 @@ pub fn write(path: &Path, run: &Run) -> anyhow::Result<()> {
         width: run.scene.camera.width,
         height: run.scene.camera.height,
         spp: run.scene.spp,
-        packet_width: run.options.settings.packet_width,
+        packet_width: run.options.settings.packet_width.rays(),
         threads: run.threads,
         accel: run.accel.kind().name(),
         specialize: run.options.settings.specialize,

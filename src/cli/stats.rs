@@ -32,7 +32,7 @@ pub fn print(run: &Run) {
         scene.lights.iter().filter(|l| l.is_point()).count(),
         scene.lights.iter().filter(|l| !l.is_point()).count(),
     );
-    let w = settings.packet_width;
+    let w = settings.packet_width.rays();
     if !settings.specialize {
         eprintln!("stats: specialisation off (--no-specialize)");
     } else {

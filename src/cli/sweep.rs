@@ -11,6 +11,7 @@ use raytracer::output;
 use raytracer::render::{self, Film, RenderSettings};
 use raytracer::rng::SamplerKind;
 use raytracer::scene::{Overrides, Scene};
+use raytracer::PacketWidth;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -173,7 +174,7 @@ pub fn render_timed(
     sampler: SamplerKind,
     seed: u32,
     spp: u32,
-    packet_width: u32,
+    packet_width: PacketWidth,
 ) -> anyhow::Result<(Film, f64, u64)> {
     scene.spp = spp;
     let settings = RenderSettings {
@@ -200,8 +201,22 @@ pub fn make_reference(
     let (mut scene, accel) = prepare(scene_arg, width)?;
     let half = (spp / 2).max(1);
     let start = Instant::now();
-    let (a, _, _) = render_timed(&mut scene, &accel, sampler, REFERENCE_SEEDS[0], half, 8)?;
-    let (b, _, _) = render_timed(&mut scene, &accel, sampler, REFERENCE_SEEDS[1], half, 8)?;
+    let (a, _, _) = render_timed(
+        &mut scene,
+        &accel,
+        sampler,
+        REFERENCE_SEEDS[0],
+        half,
+        PacketWidth::widest(),
+    )?;
+    let (b, _, _) = render_timed(
+        &mut scene,
+        &accel,
+        sampler,
+        REFERENCE_SEEDS[1],
+        half,
+        PacketWidth::widest(),
+    )?;
     let seconds = start.elapsed().as_secs_f64();
     let estimated_mse = metrics::mse(&a.pixels, &b.pixels) / 4.0;
     let mean = Film {
@@ -248,7 +263,7 @@ pub fn load_reference(path: &Path) -> anyhow::Result<(Film, ReferenceInfo)> {
 #[derive(Debug, Clone)]
 pub struct Point {
     pub sampler: SamplerKind,
-    pub packet_width: u32,
+    pub packet_width: PacketWidth,
     pub spp: u32,
     /// Median, fastest and slowest of the runs (render only: no load, build or write).
     pub seconds: f64,
@@ -264,7 +279,7 @@ pub struct SweepPlan {
     pub spp_max: u32,
     pub runs: u32,
     pub samplers: Vec<SamplerKind>,
-    pub packet_widths: Vec<u32>,
+    pub packet_widths: Vec<PacketWidth>,
     pub seed: u32,
 }
 
@@ -297,7 +312,14 @@ pub fn run_sweep(
         );
     }
     // One untimed render first: page faults and cold caches stay out of the first point.
-    render_timed(scene, accel, SamplerKind::Independent, plan.seed, 1, 1)?;
+    render_timed(
+        scene,
+        accel,
+        SamplerKind::Independent,
+        plan.seed,
+        1,
+        PacketWidth::Scalar,
+    )?;
     let mut points = Vec::new();
     for &packet_width in &plan.packet_widths {
         for spp in spp_steps(plan.spp_max) {
@@ -400,7 +422,7 @@ fn interpolate_log(xy: &[(f64, f64)], x: f64) -> Option<f64> {
 /// independent sampler the MSE ratio at equal time and the time ratio at equal MSE.
 pub fn summary(points: &[Point]) -> String {
     let mut s = String::new();
-    let widths: Vec<u32> = dedup(points.iter().map(|p| p.packet_width));
+    let widths: Vec<PacketWidth> = dedup(points.iter().map(|p| p.packet_width));
     for w in widths {
         let series = |k: SamplerKind| -> Vec<&Point> {
             points
@@ -620,7 +642,7 @@ fn panel(
     }
 }
 
-fn series_keys(points: &[Point]) -> Vec<(SamplerKind, u32)> {
+fn series_keys(points: &[Point]) -> Vec<(SamplerKind, PacketWidth)> {
     dedup(points.iter().map(|p| (p.sampler, p.packet_width)))
 }
 
@@ -660,7 +682,7 @@ pub fn chart(title: &str, points: &[Point], reference: &ReferenceInfo) -> String
     // Legend under the panels.
     let mut x = 80.0;
     let y = ph + 20.0;
-    let single_width = series_keys(points).iter().all(|&(_, w)| w == 1);
+    let single_width = dedup(points.iter().map(|p| p.packet_width)).len() == 1;
     for (i, (k, pw)) in series_keys(points).into_iter().enumerate() {
         let colour = COLOURS[i % COLOURS.len()];
         let label = if single_width {

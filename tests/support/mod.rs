@@ -25,20 +25,37 @@ pub fn builtin(name: &str, width: u32, spp: u32) -> Scene {
     Scene::load(name, o).unwrap()
 }
 
-/// Render on a pool of `threads` threads.
-pub fn render_with(scene: &Scene, accel: AccelKind, threads: usize, seed: u32) -> Rendered {
+/// Render with `settings` on a pool of `threads` threads.
+pub fn render_settings(
+    scene: &Scene,
+    accel: AccelKind,
+    threads: usize,
+    settings: &RenderSettings,
+) -> Rendered {
     let mut scene = scene.clone();
     let accel = Accel::build(&mut scene, accel);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
-    pool.install(|| render(&scene, &accel, &RenderSettings::new(seed), &|| {}))
+    pool.install(|| render(&scene, &accel, settings, &|| {}))
         .unwrap()
 }
 
+/// Render with the original program's sampling (independent numbers, scalar tracer) and
+/// seed `seed` on a pool of `threads` threads.
+pub fn render_with(scene: &Scene, accel: AccelKind, threads: usize, seed: u32) -> Rendered {
+    render_settings(
+        scene,
+        accel,
+        threads,
+        &RenderSettings::original_sampling(seed),
+    )
+}
+
+/// Render with the default settings (what a user gets) on a pool of `threads` threads.
 pub fn render_film(scene: &Scene, threads: usize) -> Film {
-    render_with(scene, AccelKind::Bvh, threads, 0).film
+    render_settings(scene, AccelKind::Bvh, threads, &RenderSettings::default()).film
 }
 
 /// The bit patterns of a film, for exact comparisons (NaN-safe).
