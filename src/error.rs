@@ -1,17 +1,29 @@
 //! The library's error type. Every variant names what the user has to fix: the file and
-//! line of a scene or OBJ, the flag, or the output path.
+//! line of a scene or OBJ, the setting, or the output path.
 
 use std::path::PathBuf;
 
+/// What went wrong, with the file, line and column where there is one. `{}` prints one
+/// line; `{:#}` (with `anyhow`) adds the cause of an [`Error::Io`].
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum Error {
+    /// A scene name that is neither built in nor a file.
     #[error("unknown scene '{name}': not a built-in scene and no such file (built-in scenes: {available})")]
-    UnknownScene { name: String, available: String },
+    UnknownScene {
+        /// The name asked for.
+        name: String,
+        /// The built-in scenes, comma-separated.
+        available: String,
+    },
 
-    /// The reason is the source, which `{:#}` prints after the path.
+    /// A file that cannot be read. The reason is the source, which `{:#}` prints after
+    /// the path.
     #[error("cannot read {path}")]
     Io {
+        /// The file.
         path: String,
+        /// Why it cannot be read.
         #[source]
         source: std::io::Error,
     },
@@ -19,20 +31,28 @@ pub enum Error {
     /// A scene file problem at a position (TOML syntax, unknown key, invalid value).
     #[error("{path}:{line}:{column}: {message}")]
     Scene {
+        /// The scene file (or the built-in scene's name).
         path: String,
+        /// 1-based line.
         line: usize,
+        /// 1-based column.
         column: usize,
+        /// What is wrong there.
         message: String,
     },
 
     /// An OBJ problem; `line` is 0 when the problem has no single line.
     #[error("{}: {message}", if *line > 0 { format!("{path}:{line}") } else { path.clone() })]
     Obj {
+        /// The OBJ file.
         path: String,
+        /// 1-based line, or 0.
         line: usize,
+        /// What is wrong there.
         message: String,
     },
 
+    /// An invalid setting.
     #[error("{0}")]
     Options(String),
 
@@ -40,15 +60,26 @@ pub enum Error {
     #[error("packet width must be 1, 4 or 8, got '{0}'")]
     PacketWidth(String),
 
+    /// An image whose film cannot be allocated.
     #[error("cannot allocate a {width}x{height} image ({bytes} bytes)")]
     ImageTooLarge {
+        /// Width in pixels.
         width: u32,
+        /// Height in pixels.
         height: u32,
+        /// The bytes the film needs.
         bytes: u128,
     },
 
+    /// An image or report that cannot be written (nothing was written).
     #[error("cannot write {path}: {message}")]
-    Output { path: PathBuf, message: String },
+    Output {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        message: String,
+    },
 }
 
+/// `Result` with the library's [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,23 +1,78 @@
-//! raytracer: a data-oriented SIMD packet ray tracer.
+//! A CPU ray tracer built on SIMD ray packets: structure-of-arrays primitive pools, an
+//! 8-wide BVH for single rays and a 4-wide one for packets, watertight triangles,
+//! error-bounded ray offsets, and counter-based random numbers, so that every image is
+//! the same bits for any thread count and packet width.
 //!
-//! Data flow (see `ARCHITECTURE.md`): scene file → `scene::desc` (serde) →
-//! `scene::compile` → `Scene` (SoA pools, materials, lights, `Features`) →
-//! `accel` → `integrator` (tracers) → `render::Film` → `output`.
+//! A scene is a TOML file (its keys are documented in `scenes/README.md`): read it into a
+//! [`SceneFile`], compile it with its acceleration structure into a [`Renderer`], render
+//! with [`RenderSettings`] into a [`Film`] of linear RGB, and write or inspect the film.
+//!
+//! ```
+//! use raytracer::{RenderSettings, Renderer};
+//!
+//! let renderer = Renderer::from_toml(r#"
+//!     camera = { width = 32, aspect_ratio = 2.0, samples_per_pixel = 4 }
+//!     materials.red = { type = "phong", albedo = [0.8, 0.1, 0.1], shininess = 10 }
+//!     materials.lamp = { type = "light", color = [1, 1, 1] }
+//!     objects = [
+//!         { type = "sphere", center = [0, 0, -2], radius = 0.5, material = "red" },
+//!         { type = "sphere", center = [1, 1, -1], radius = 0.1, material = "lamp" },
+//!     ]
+//! "#)?;
+//! let film = renderer.render(&RenderSettings::default())?;
+//! assert_eq!((film.width, film.height), (32, 16));
+//! let centre = film.get(16, 8); // the red sphere, lit
+//! assert!(centre.x > centre.y && centre.y > 0.0);
+//! film.write(std::env::temp_dir().join("raytracer-example.png"))?;
+//! # Ok::<(), raytracer::Error>(())
+//! ```
+//!
+//! [`SceneFile::builtin`] loads the scenes the `raytracer` command knows by name, and
+//! [`SceneOptions`] replaces a scene's width, samples per pixel or depth.
+//! [`Renderer::render`] runs on the current rayon thread pool.
 
-pub mod accel;
-pub mod camera;
-pub mod error;
-pub mod generate;
-pub mod geometry;
-pub mod integrator;
-pub mod lanes;
-pub mod material;
-pub mod metrics;
-pub mod output;
-pub mod render;
-pub mod rng;
-pub mod scene;
+#![warn(missing_docs)]
+
+mod error;
+mod film;
+mod renderer;
 mod settings;
 
+pub use accel::AccelKind;
 pub use error::{Error, Result};
+pub use film::Film;
+pub use glam::Vec3;
+pub use integrator::RayCounts;
+pub use renderer::{Rendered, Renderer, SceneFile, SceneOptions};
+pub use rng::SamplerKind;
 pub use settings::{PacketWidth, RenderSettings};
+
+// The internals: public only so that the integration tests, the benchmarks and the probes
+// can check and measure the kernels directly (bit-identity between packet widths,
+// primitives against f64 oracles, the BVH against the linear scan), and so that the
+// command line can print its statistics. Hidden from the documentation and not part of
+// the API: they change without notice.
+#[doc(hidden)]
+pub mod accel;
+#[doc(hidden)]
+pub mod camera;
+#[doc(hidden)]
+pub mod generate;
+#[doc(hidden)]
+pub mod geometry;
+#[doc(hidden)]
+pub mod integrator;
+#[doc(hidden)]
+pub mod lanes;
+#[doc(hidden)]
+pub mod material;
+#[doc(hidden)]
+pub mod metrics;
+#[doc(hidden)]
+pub mod output;
+#[doc(hidden)]
+pub mod render;
+#[doc(hidden)]
+pub mod rng;
+#[doc(hidden)]
+pub mod scene;

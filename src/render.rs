@@ -3,9 +3,11 @@
 //! count and tile order.
 
 use crate::accel::Accel;
-use crate::error::{Error, Result};
+use crate::error::Result;
+pub use crate::film::Film;
 use crate::integrator::{footprint, RayCounts, Tracer};
 use crate::lanes::{Lane, V3};
+pub use crate::renderer::Rendered;
 use crate::rng::Sampler;
 use crate::scene::Scene;
 pub use crate::settings::{PacketWidth, RenderSettings};
@@ -15,51 +17,6 @@ use wide::f32x8;
 
 /// Tile edge in pixels. A multiple of the packet footprints (4x2 and 2x2).
 pub const TILE: u32 = 16;
-
-/// Linear RGB, one `Vec3` per pixel, rows top to bottom.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Film {
-    pub width: u32,
-    pub height: u32,
-    pub pixels: Vec<Vec3>,
-}
-
-impl Film {
-    /// A black film, or `ImageTooLarge` if the memory cannot be had.
-    pub fn new(width: u32, height: u32) -> Result<Self> {
-        let n = width as usize * height as usize;
-        let mut pixels = Vec::new();
-        pixels
-            .try_reserve_exact(n)
-            .map_err(|_| Error::ImageTooLarge {
-                width,
-                height,
-                bytes: n as u128 * std::mem::size_of::<Vec3>() as u128,
-            })?;
-        pixels.resize(n, Vec3::ZERO);
-        Ok(Self {
-            width,
-            height,
-            pixels,
-        })
-    }
-
-    pub fn get(&self, x: u32, y: u32) -> Vec3 {
-        self.pixels[(y * self.width + x) as usize]
-    }
-
-    /// Pixels with a NaN or infinite channel.
-    pub fn non_finite_count(&self) -> usize {
-        self.pixels.iter().filter(|p| !p.is_finite()).count()
-    }
-}
-
-/// The result of a render.
-#[derive(Debug)]
-pub struct Rendered {
-    pub film: Film,
-    pub counts: RayCounts,
-}
 
 /// Render on the current rayon pool. `on_tile` is called after each tile (progress).
 pub fn render(

@@ -335,7 +335,7 @@ fn dim1_reversed(r: u32) -> u32 {
 /// Computed in the bit-reversed domain, where the scrambles need no reversal: with
 /// r = lk(reverse(index)) the shuffled index is reverse(r); component 0 is
 /// reverse(lk(reverse(r))) and component 1 reverse(lk(reverse(sobol₁(reverse(r))))), the
-/// inner part a table lookup. [`tests::sobol_owen_is_the_plain_construction`] checks it
+/// inner part a table lookup. `tests::sobol_owen_is_the_plain_construction` checks it
 /// against the construction written out.
 #[inline]
 pub fn sobol_owen(index: u32, seed: u32, component: u32) -> u32 {

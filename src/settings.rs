@@ -17,9 +17,10 @@ use std::str::FromStr;
 /// ```
 /// use raytracer::PacketWidth;
 ///
-/// assert_eq!(PacketWidth::try_from(4), Ok(PacketWidth::Four));
-/// assert_eq!("8".parse::<PacketWidth>().map(PacketWidth::rays), Ok(8));
+/// assert_eq!(PacketWidth::try_from(4)?, PacketWidth::Four);
+/// assert_eq!("8".parse::<PacketWidth>()?.rays(), 8);
 /// assert!(PacketWidth::try_from(3).is_err());
+/// # Ok::<(), raytracer::Error>(())
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum PacketWidth {

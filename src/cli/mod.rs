@@ -10,7 +10,7 @@ pub mod stats;
 pub mod sweep;
 
 use anyhow::Context;
-use raytracer::scene::{builtin, SceneSource};
+use raytracer::SceneFile;
 use std::path::Path;
 
 /// The worker threads of every command (rayon's global pool is never used), and their
@@ -29,11 +29,23 @@ pub fn thread_pool(threads: Option<u32>) -> anyhow::Result<(rayon::ThreadPool, u
 
 /// `--list`: every built-in scene with its description.
 pub fn list() -> anyhow::Result<()> {
-    for name in builtin::names() {
-        let desc = SceneSource::resolve(name)?.parse()?;
-        println!("{name:<22} {}", desc.description);
+    for name in SceneFile::builtin_names() {
+        println!("{name:<22} {}", SceneFile::builtin(name)?.description());
     }
     Ok(())
+}
+
+/// The scene argument: a built-in scene name, or a path to a scene file. An argument
+/// without `.toml`, `/` or `\` is a built-in name, unless no built-in scene has it and a
+/// file does.
+pub fn scene_file(arg: &str) -> raytracer::Result<SceneFile> {
+    let looks_like_path = arg.ends_with(".toml") || arg.contains('/') || arg.contains('\\');
+    let is_builtin = SceneFile::builtin_names().contains(&arg);
+    if !looks_like_path && (is_builtin || !Path::new(arg).is_file()) {
+        SceneFile::builtin(arg)
+    } else {
+        SceneFile::from_path(arg)
+    }
 }
 
 /// The default output name: the scene name, or a scene file's stem.

@@ -3,12 +3,8 @@
 
 use super::args::{self, Args};
 use super::scene_stem;
-use raytracer::accel::AccelKind;
 use raytracer::output::{self, ImageFormat};
-use raytracer::render::RenderSettings;
-use raytracer::rng::SamplerKind;
-use raytracer::scene::Overrides;
-use raytracer::PacketWidth;
+use raytracer::{PacketWidth, RenderSettings, SamplerKind, SceneOptions};
 use std::path::PathBuf;
 
 /// What the command line asks for.
@@ -24,10 +20,9 @@ pub enum Options {
 /// Render one scene to an image.
 #[derive(Debug)]
 pub struct RenderOptions {
-    /// The scene argument: a built-in name or a path.
+    /// The scene argument: a built-in name or a path (`cli::scene_file`).
     pub scene: String,
-    pub overrides: Overrides,
-    pub accel: AccelKind,
+    pub scene_options: SceneOptions,
     pub settings: RenderSettings,
     pub output: PathBuf,
     pub report: Option<PathBuf>,
@@ -94,12 +89,12 @@ fn render(args: Args) -> anyhow::Result<RenderOptions> {
     }
     Ok(RenderOptions {
         scene,
-        overrides: Overrides {
+        scene_options: SceneOptions {
             width: args.width,
             spp: args.spp,
             max_depth: args.max_depth,
+            accel: args.accel.into(),
         },
-        accel: args.accel.into(),
         settings: RenderSettings {
             seed: args.seed,
             packet_width: args.packet_width,

@@ -3,39 +3,30 @@
 
 use super::options::RenderOptions;
 use super::{report, stats};
-use raytracer::accel::Accel;
-use raytracer::output;
-use raytracer::render::{self, Rendered};
-use raytracer::scene::Scene;
-use raytracer::PacketWidth;
+use raytracer::{PacketWidth, Rendered, Renderer};
 use std::io::IsTerminal;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
-/// When each phase of a run ended.
+/// What each phase of a run took.
 #[derive(Clone, Copy, Debug)]
-pub struct Timeline {
+pub struct Timings {
+    /// Reading, parsing and compiling the scene (meshes included).
+    pub load: Duration,
+    /// Building the acceleration structure.
+    pub build: Duration,
+    pub render: Duration,
+    pub write: Duration,
+    /// When the run started (the total is up to when it is printed).
     pub start: Instant,
-    pub loaded: Instant,
-    pub built: Instant,
-    pub rendered: Instant,
-    pub written: Instant,
-}
-
-impl Timeline {
-    /// Seconds from `a` to `b`.
-    pub fn seconds(a: Instant, b: Instant) -> f64 {
-        (b - a).as_secs_f64()
-    }
 }
 
 /// What a run made, for the report and the printers.
 pub struct Run<'a> {
     pub options: &'a RenderOptions,
-    pub scene: &'a Scene,
-    pub accel: &'a Accel,
+    pub renderer: &'a Renderer,
     pub rendered: &'a Rendered,
     pub threads: usize,
-    pub timeline: Timeline,
+    pub timings: Timings,
 }
 
 /// Render `o` on the current rayon pool of `threads` threads.
@@ -44,36 +35,34 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
     if o.settings.packet_width == PacketWidth::Eight && !raytracer::lanes::AVX2 && o.notes {
         eprintln!("note: built without AVX2: 8-wide packets run as two 4-wide halves");
     }
-    let mut scene = Scene::load(&o.scene, o.overrides)?;
-    let loaded = Instant::now();
-    let accel = Accel::build(&mut scene, o.accel);
+    let file = super::scene_file(&o.scene)?;
+    let renderer = Renderer::new(&file, &o.scene_options)?;
     let built = Instant::now();
 
-    let bar = o.notes.then(|| progress_bar(&scene)).flatten();
+    let bar = o.notes.then(|| progress_bar(&renderer)).flatten();
     let on_tile = || {
         if let Some(b) = &bar {
             b.inc(1)
         }
     };
-    let rendered = render::render(&scene, &accel, &o.settings, &on_tile)?;
+    let rendered = renderer.render_with_progress(&o.settings, &on_tile)?;
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
     let rendered_at = Instant::now();
 
-    output::write_image(&rendered.film, &o.output)?;
+    rendered.film.write(&o.output)?;
     let run = Run {
         options: o,
-        scene: &scene,
-        accel: &accel,
+        renderer: &renderer,
         rendered: &rendered,
         threads,
-        timeline: Timeline {
+        timings: Timings {
+            load: (built - start).saturating_sub(renderer.build_time()),
+            build: renderer.build_time(),
+            render: rendered_at - built,
+            write: rendered_at.elapsed(),
             start,
-            loaded,
-            built,
-            rendered: rendered_at,
-            written: Instant::now(),
         },
     };
     if let Some(path) = &o.report {
@@ -89,13 +78,11 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
 }
 
 /// A bar over the tiles, on a terminal only.
-fn progress_bar(scene: &Scene) -> Option<indicatif::ProgressBar> {
+fn progress_bar(renderer: &Renderer) -> Option<indicatif::ProgressBar> {
     if !std::io::stderr().is_terminal() {
         return None;
     }
-    let tiles =
-        scene.camera.width.div_ceil(render::TILE) * scene.camera.height.div_ceil(render::TILE);
-    let bar = indicatif::ProgressBar::new(tiles as u64);
+    let bar = indicatif::ProgressBar::new(renderer.tiles() as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
             "{spinner} {wide_bar} {percent}% {elapsed}/{duration}",
@@ -107,21 +94,20 @@ fn progress_bar(scene: &Scene) -> Option<indicatif::ProgressBar> {
 
 /// The warning for non-finite pixels and the one summary line.
 fn summary(run: &Run) {
-    let (scene, film, counts) = (run.scene, &run.rendered.film, run.rendered.counts);
+    let (r, film, counts) = (run.renderer, &run.rendered.film, run.rendered.counts);
     let bad = film.non_finite_count();
     if bad > 0 {
         eprintln!("warning: {bad} pixels had a NaN or infinite value");
     }
-    let t = run.timeline;
-    let render_s = Timeline::seconds(t.built, t.rendered);
+    let render_s = run.timings.render.as_secs_f64();
     eprintln!(
         "{}: {}x{}, {} spp, {:.3} s render ({:.3} s total), {:.2} M rays, {:.1} Mrays/s -> {}",
-        scene.name,
-        scene.camera.width,
-        scene.camera.height,
-        scene.spp,
+        r.name(),
+        r.width(),
+        r.height(),
+        r.spp(),
         render_s,
-        Timeline::seconds(t.start, Instant::now()),
+        run.timings.start.elapsed().as_secs_f64(),
         counts.total() as f64 / 1e6,
         counts.total() as f64 / 1e6 / render_s.max(1e-9),
         run.options.output.display()

@@ -1,10 +1,9 @@
 //! `--report FILE`: sizes, timings and ray counts of a run as JSON, written atomically.
 
-use super::render::{Run, Timeline};
-use raytracer::integrator::RayCounts;
+use super::render::Run;
 use raytracer::output;
+use raytracer::RayCounts;
 use std::path::Path;
-use std::time::Instant;
 
 /// The `--report` JSON.
 #[derive(Debug, serde::Serialize)]
@@ -66,23 +65,22 @@ impl From<RayCounts> for Rays {
 
 /// Write the report of `run` to `path`.
 pub fn write(path: &Path, run: &Run) -> anyhow::Result<()> {
-    let t = run.timeline;
-    let secs = Timeline::seconds;
+    let (r, t) = (run.renderer, run.timings);
     let report = Report {
-        scene: &run.scene.name,
-        width: run.scene.camera.width,
-        height: run.scene.camera.height,
-        spp: run.scene.spp,
+        scene: r.name(),
+        width: r.width(),
+        height: r.height(),
+        spp: r.spp(),
         packet_width: run.options.settings.packet_width.rays(),
         threads: run.threads,
-        accel: run.accel.kind().name(),
+        accel: run.options.scene_options.accel.name(),
         specialize: run.options.settings.specialize,
         seconds: Seconds {
-            load: secs(t.start, t.loaded),
-            build: secs(t.loaded, t.built),
-            render: secs(t.built, t.rendered),
-            write: secs(t.rendered, t.written),
-            total: secs(t.start, Instant::now()),
+            load: t.load.as_secs_f64(),
+            build: t.build.as_secs_f64(),
+            render: t.render.as_secs_f64(),
+            write: t.write.as_secs_f64(),
+            total: t.start.elapsed().as_secs_f64(),
         },
         rays: run.rendered.counts.into(),
         non_finite_pixels: run.rendered.film.non_finite_count(),

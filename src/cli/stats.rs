@@ -1,18 +1,18 @@
 //! `--stats`: what the acceleration structure holds, the rays and the traversal work, what
 //! the scene needs and what specialisation skipped, packet occupancy, non-finite pixels.
 
-use super::render::{Run, Timeline};
+use super::render::Run;
 
 /// Print the statistics of `run` on stderr, one `stats:` line each.
 pub fn print(run: &Run) {
-    let (scene, counts) = (run.scene, run.rendered.counts);
+    let (scene, counts) = (run.renderer.scene(), run.rendered.counts);
     let settings = &run.options.settings;
     let t = counts.traversal;
     let per_ray = |x: u64| x as f64 / counts.total().max(1) as f64;
-    eprintln!("stats: {}", run.accel.describe(scene));
+    eprintln!("stats: {}", run.renderer.accel().describe(scene));
     eprintln!(
         "stats: build {:.3} ms",
-        Timeline::seconds(run.timeline.loaded, run.timeline.built) * 1e3
+        run.timings.build.as_secs_f64() * 1e3
     );
     eprintln!(
         "stats: rays: {} camera, {} shadow, {} secondary; per ray {:.2} boxes visited, {:.2} primitives tested",

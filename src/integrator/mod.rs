@@ -35,40 +35,51 @@ pub const T_MIN: f32 = f32::MIN_POSITIVE;
 /// Rays traced, by kind, and the traversal work they took.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RayCounts {
+    /// Camera rays (one a pixel sample).
     pub camera: u64,
+    /// Shadow rays traced (one a light sample that is not culled).
     pub shadow: u64,
     /// Mirror reflections and path-traced bounces.
     pub secondary: u64,
+    /// Boxes visited and primitives tested by all of them.
     pub traversal: TraversalStats,
     /// Work skipped by specialisation: shadow rays not traced because their light sample
     /// adds nothing whether lit or not, and packets answered at once (they miss the
     /// scene's box, or their tile's camera cone meets nothing).
     pub shadow_culled: u64,
+    /// Packets answered without a traversal (see `shadow_culled`).
     pub packets_outside: u64,
     /// Camera rays' tests skipped by their tile's cone (`Tracer::camera_cull`):
     /// primitive tests beside the tree (one a lane), and packets kept out of the tree.
     pub cone_prims: u64,
+    /// Camera packets kept out of the tree by their tile's cone (see `cone_prims`).
     pub cone_trees: u64,
     /// Packets traced, by kind, and their active lanes (zero on the scalar path).
     pub camera_packets: LaneUse,
+    /// Shadow packets (see `camera_packets`).
     pub shadow_packets: LaneUse,
+    /// Mirror packets (see `camera_packets`).
     pub mirror_packets: LaneUse,
 }
 
 /// Packets of one ray kind and the lanes that held a ray.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LaneUse {
+    /// Packets traced.
     pub packets: u64,
+    /// Their active lanes, summed.
     pub lanes: u64,
 }
 
 impl LaneUse {
+    /// Count one packet with the lanes of `active`.
     #[inline]
     pub fn record(&mut self, active: u32) {
         self.packets += 1;
         self.lanes += active.count_ones() as u64;
     }
 
+    /// Add `o`'s counts to these.
     pub fn add(&mut self, o: &LaneUse) {
         self.packets += o.packets;
         self.lanes += o.lanes;
@@ -81,10 +92,12 @@ impl LaneUse {
 }
 
 impl RayCounts {
+    /// Rays of every kind.
     pub fn total(&self) -> u64 {
         self.camera + self.shadow + self.secondary
     }
 
+    /// Add `o`'s counts to these.
     pub fn add(&mut self, o: &RayCounts) {
         self.camera += o.camera;
         self.shadow += o.shadow;

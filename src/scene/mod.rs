@@ -46,38 +46,56 @@ pub struct SceneSource {
 }
 
 impl SceneSource {
-    /// A built-in scene name, or a path to a `.toml` file.
+    /// A built-in scene name, or a path to a `.toml` file: a name without `.toml`, `/` or
+    /// `\\` is a built-in scene unless no built-in scene has it and a file does.
     pub fn resolve(arg: &str) -> Result<Self> {
         let path = Path::new(arg);
         let looks_like_path = arg.ends_with(".toml") || arg.contains('/') || arg.contains('\\');
-        if !looks_like_path {
-            if let Some(text) = builtin::scene(arg) {
-                return Ok(Self {
-                    display: format!("{arg} (built-in scenes/{arg}.toml)"),
-                    name: arg.to_string(),
-                    text: Cow::Borrowed(text),
-                    dir: None,
-                });
-            }
-            if !path.is_file() {
-                return Err(Error::UnknownScene {
-                    name: arg.to_string(),
-                    available: builtin::names().join(", "),
-                });
-            }
+        if !looks_like_path && (builtin::scene(arg).is_some() || !path.is_file()) {
+            return Self::builtin(arg);
         }
+        Self::read(path)
+    }
+
+    /// A built-in scene, or `UnknownScene` naming the built-in ones.
+    pub fn builtin(name: &str) -> Result<Self> {
+        let text = builtin::scene(name).ok_or_else(|| Error::UnknownScene {
+            name: name.to_string(),
+            available: builtin::names().join(", "),
+        })?;
+        Ok(Self {
+            display: format!("{name} (built-in scenes/{name}.toml)"),
+            name: name.to_string(),
+            text: Cow::Borrowed(text),
+            dir: None,
+        })
+    }
+
+    /// A scene file; relative mesh paths start from its directory.
+    pub fn read(path: &Path) -> Result<Self> {
+        let display = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: arg.to_string(),
+            path: display.clone(),
             source,
         })?;
         Ok(Self {
-            display: arg.to_string(),
+            display,
             name: path
                 .file_stem()
                 .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned()),
             text: Cow::Owned(text),
             dir: Some(path.parent().unwrap_or(Path::new(".")).to_path_buf()),
         })
+    }
+
+    /// Scene text named `scene`; relative mesh paths start from `dir`.
+    pub fn from_text(text: &str, dir: &Path) -> Self {
+        Self {
+            display: "scene".to_string(),
+            name: "scene".to_string(),
+            text: Cow::Owned(text.to_string()),
+            dir: Some(dir.to_path_buf()),
+        }
     }
 
     /// Parse the TOML into a description; syntax errors and unknown keys name line and column.
@@ -300,7 +318,9 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Load and compile a scene named on the command line.
+    /// Load and compile a built-in scene name or a scene file path (`SceneSource::resolve`);
+    /// for the tests and benchmarks, which edit the compiled scene (the public way in is
+    /// `SceneFile` and `Renderer`).
     pub fn load(arg: &str, overrides: Overrides) -> Result<Scene> {
         let source = SceneSource::resolve(arg)?;
         let desc = source.parse()?;

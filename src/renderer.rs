@@ -1,0 +1,181 @@
+//! The library's front door: a scene file parsed ([`SceneFile`]), compiled with its
+//! acceleration structure into a [`Renderer`], rendered with [`RenderSettings`] into a
+//! [`Film`].
+
+use crate::accel::{Accel, AccelKind};
+use crate::error::Result;
+use crate::film::Film;
+use crate::integrator::RayCounts;
+use crate::render;
+use crate::scene::desc::SceneDesc;
+use crate::scene::{builtin, compile, Overrides, Scene, SceneSource};
+use crate::settings::RenderSettings;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+/// A scene file, read and parsed: its TOML syntax and keys are checked (errors name the
+/// line and column), its values are not yet (that is [`Renderer::new`]'s job). The keys
+/// are documented in `scenes/README.md`.
+#[derive(Debug)]
+pub struct SceneFile {
+    source: SceneSource,
+    desc: SceneDesc,
+}
+
+impl SceneFile {
+    /// Parse scene text. Mesh paths in it are relative to the current directory.
+    pub fn from_toml(text: &str) -> Result<Self> {
+        Self::parse(SceneSource::from_text(text, Path::new(".")))
+    }
+
+    /// Read and parse a scene file. Mesh paths in it are relative to its directory.
+    pub fn from_path(path: impl AsRef<Path>) -> Result<Self> {
+        Self::parse(SceneSource::read(path.as_ref())?)
+    }
+
+    /// One of the built-in scenes ([`SceneFile::builtin_names`]), embedded in the library
+    /// with its meshes; [`Error::UnknownScene`](crate::Error::UnknownScene) lists them for
+    /// any other name.
+    pub fn builtin(name: &str) -> Result<Self> {
+        Self::parse(SceneSource::builtin(name)?)
+    }
+
+    /// The names of the built-in scenes.
+    pub fn builtin_names() -> Vec<&'static str> {
+        builtin::names()
+    }
+
+    fn parse(source: SceneSource) -> Result<Self> {
+        let desc = source.parse()?;
+        Ok(Self { source, desc })
+    }
+
+    /// The scene's name: a built-in name or the file's stem (`scene` for text).
+    pub fn name(&self) -> &str {
+        &self.source.name
+    }
+
+    /// The scene file's one-line `description`.
+    pub fn description(&self) -> &str {
+        &self.desc.description
+    }
+}
+
+/// How a scene is compiled: values that replace the scene file's, and the acceleration
+/// structure to build.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SceneOptions {
+    /// Image width in pixels (1 to 65536); the height follows the scene's aspect ratio.
+    pub width: Option<u32>,
+    /// Samples per pixel (1 to 2^20).
+    pub spp: Option<u32>,
+    /// Maximum path depth (1 to 10000).
+    pub max_depth: Option<u32>,
+    /// The acceleration structure: the BVH by default.
+    pub accel: AccelKind,
+}
+
+/// A compiled scene and the acceleration structure built over it, ready to render any
+/// number of times.
+///
+/// Compiling checks every value (errors name the line of the scene file), turns boxes into
+/// quads and meshes into triangles, and lays primitives out one pool per kind; the
+/// acceleration structure then reorders those pools, which is why the two are built, and
+/// kept, together.
+#[derive(Debug)]
+pub struct Renderer {
+    scene: Scene,
+    accel: Accel,
+    build_time: Duration,
+}
+
+/// A film and the rays traced to make it.
+#[derive(Debug)]
+pub struct Rendered {
+    /// The image.
+    pub film: Film,
+    /// Rays by kind and the traversal work they took.
+    pub counts: RayCounts,
+}
+
+impl Renderer {
+    /// Compile `file` with `options` and build its acceleration structure.
+    pub fn new(file: &SceneFile, options: &SceneOptions) -> Result<Self> {
+        let overrides = Overrides {
+            width: options.width,
+            spp: options.spp,
+            max_depth: options.max_depth,
+        };
+        let mut scene = compile(&file.source, &file.desc, overrides)?;
+        let start = Instant::now();
+        let accel = Accel::build(&mut scene, options.accel);
+        Ok(Self {
+            scene,
+            accel,
+            build_time: start.elapsed(),
+        })
+    }
+
+    /// [`Renderer::new`] for scene text at the scene's own settings.
+    pub fn from_toml(text: &str) -> Result<Self> {
+        Self::new(&SceneFile::from_toml(text)?, &SceneOptions::default())
+    }
+
+    /// The scene's name ([`SceneFile::name`]).
+    pub fn name(&self) -> &str {
+        &self.scene.name
+    }
+
+    /// Image width in pixels.
+    pub fn width(&self) -> u32 {
+        self.scene.camera.width
+    }
+
+    /// Image height in pixels.
+    pub fn height(&self) -> u32 {
+        self.scene.camera.height
+    }
+
+    /// Samples per pixel.
+    pub fn spp(&self) -> u32 {
+        self.scene.spp
+    }
+
+    /// The time the acceleration structure took to build.
+    pub fn build_time(&self) -> Duration {
+        self.build_time
+    }
+
+    /// Render on the current rayon thread pool (the global one unless called inside
+    /// `ThreadPool::install`). The film is the same bits for any number of threads.
+    pub fn render(&self, settings: &RenderSettings) -> Result<Film> {
+        Ok(self.render_with_progress(settings, &|| {})?.film)
+    }
+
+    /// [`Renderer::render`], calling `on_tile` after each tile of 16x16 pixels (from any
+    /// thread), and counting the rays traced.
+    pub fn render_with_progress(
+        &self,
+        settings: &RenderSettings,
+        on_tile: &(dyn Fn() + Sync),
+    ) -> Result<Rendered> {
+        render::render(&self.scene, &self.accel, settings, on_tile)
+    }
+
+    /// Tiles a render calls `on_tile` for.
+    pub fn tiles(&self) -> u32 {
+        self.width().div_ceil(render::TILE) * self.height().div_ceil(render::TILE)
+    }
+
+    /// The compiled scene, for the command line's statistics and the tests.
+    #[doc(hidden)]
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The acceleration structure, for the command line's statistics and the tests.
+    #[doc(hidden)]
+    pub fn accel(&self) -> &Accel {
+        &self.accel
+    }
+}
