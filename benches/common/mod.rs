@@ -16,7 +16,7 @@ use raytracer::rng::{slot, SampleKey};
 use raytracer::scene::{Overrides, Scene};
 
 /// Built-in scene `name` at 400 px wide and 2 samples a pixel, with its BVH: the small
-/// size of `examples/packet_probe.rs` and `benches/render.rs`.
+/// size of `benches/probes/packet_probe.rs` and `benches/render.rs`.
 pub fn small_scene(name: &str) -> (Scene, Accel) {
     let overrides = Overrides {
         width: Some(400),

@@ -1,7 +1,7 @@
 /* Embree 3 on our ray sets, one thread: the reference the speed goals of issues 3 and 4
  * are stated against, measured on this machine in the same run as our own benchmarks.
  *
- * Reads a file of `examples/export_rays.rs` (the scene's triangles and spheres, and ray
+ * Reads a file of `benches/probes/vs_embree.rs` (the scene's triangles and spheres, and ray
  * sets with our answers), builds an Embree scene of one triangle mesh and one geometry
  * of sphere points, and times each set: single rays with rtcIntersect1, 8-wide packets
  * with rtcIntersect8 / rtcOccluded8 (the sets `vs_embree` writes). Each set is traced `passes` times

@@ -347,7 +347,7 @@ impl<L: Lane> RayPacket<L> {
     }
 
     /// Subtrees entered by at most this many lanes are finished one ray at a time: a
-    /// lone lane of 8 (none of 4). Measured (examples/packet_probe, callgrind, 400x225x2
+    /// lone lane of 8 (none of 4). Measured (benches/probes/packet_probe.rs, callgrind, 400x225x2
     /// camera rays, 8 wide; instructions for bunny-closeup / bunny): finishing alone at
     /// ≤ 0 lanes 171.6M / 110.1M, ≤ 1: 178.1M / 112.9M, ≤ 2: 182.1M / 113.8M, ≤ 3 (the
     /// design's starting point): 188.9M / 115.7M, ≤ 5: 213.5M / 119.7M; whole renders,

@@ -156,7 +156,7 @@ impl TrianglePool {
     ///
     /// Always inlined (it is the scalar traversal's leaf test): as a call, with its vertex
     /// loads in a closure that was not inlined either, it cost ~30% more instructions per
-    /// camera ray on `bunny-closeup` (callgrind, `examples/trace_probe.rs`).
+    /// camera ray on `bunny-closeup` (callgrind, `benches/probes/trace_probe.rs`).
     #[inline(always)]
     pub fn intersect4(
         &self,

@@ -10,7 +10,7 @@
 //! valgrind --tool=callgrind --toggle-collect=packet_probe::trace_all \
 //!     target/release/examples/packet_probe bunny shadow 8
 
-#[path = "../benches/common/mod.rs"]
+#[path = "../common/mod.rs"]
 mod common;
 
 use common::{camera_packets, flatten, in_lanes, shadow_packets, small_scene, LanePacket, Packet};

@@ -17,7 +17,7 @@ use raytracer::geometry::PrimKind;
 use raytracer::integrator::T_MIN;
 use raytracer::scene::{Overrides, Scene};
 
-#[path = "../benches/common/mod.rs"]
+#[path = "../common/mod.rs"]
 mod common;
 
 /// A child: an inner node's index, or a leaf's first reference and count.

@@ -11,7 +11,7 @@
 //! Arguments: scene (`bunny`, `bunny-closeup`), subdivision levels (default 0), passes
 //! (default 1).
 
-#[path = "../benches/common/mod.rs"]
+#[path = "../common/mod.rs"]
 mod common;
 use common::camera_rays;
 use raytracer::accel::{Accel, AccelKind, TraversalStats};

@@ -29,7 +29,7 @@
 //! `u32` width, `u32` packet count, `u32` our answer, then per packet a `u32` active mask
 //! and `width` rays of seven `f32` (origin, direction, t_far).
 
-#[path = "../benches/common/mod.rs"]
+#[path = "../common/mod.rs"]
 mod common;
 
 use common::{camera_packets, camera_rays, in_lanes, shadow_packets, LanePacket, Packet};
