@@ -11,6 +11,8 @@
 //!   so a NaN in either operand yields `b` (the box test relies on it to drop 0·∞);
 //! - the same operand order everywhere (`V3::dot` is `(x·x + y·y) + z·z`, as glam's).
 
+pub mod math;
+
 use glam::{BVec4A, Vec4};
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 use wide::{f32x8, i32x8, CmpEq, CmpGe, CmpGt, CmpLe, CmpLt};
@@ -121,6 +123,9 @@ pub trait Lane:
         let down = Self::select(towards.lt(zero), self.next_down(), self);
         Self::select(towards.gt(zero), self.next_up(), down)
     }
+    /// `K` on the lanes widened to f64 (exactly), its results rounded to f32: the
+    /// transcendental functions of `math`, one kernel for every width.
+    fn map_f64<K: math::F64Kernel>(a: Self, b: Self) -> (Self, Self);
     /// The smallest lane, for lanes that are not NaN (a NaN lane may or may not be
     /// skipped). A pairwise tree of `a < b ? a : b`, one `minss` each: `f32::min`'s
     /// NaN handling cost three more instructions per lane (callgrind, packet traversal).
@@ -133,6 +138,18 @@ pub trait Lane:
     fn reduce_max(self) -> f32 {
         reduce_tree(self, |a, b| if a > b { a } else { b })
     }
+}
+
+/// Four f32 as four f64 (exact; `vcvtps2pd`).
+#[inline(always)]
+fn widen(v: [f32; 4]) -> wide::f64x4 {
+    wide::f64x4::new(v.map(f64::from))
+}
+
+/// Four f64 rounded to f32 (to nearest, as `as` and `vcvtpd2ps` round).
+#[inline(always)]
+fn narrow(v: wide::f64x4) -> [f32; 4] {
+    v.to_array().map(|x| x as f32)
 }
 
 /// `pick` over the lanes as a pairwise tree: lane i against lane i + w/2, halving w.
@@ -175,6 +192,11 @@ impl Mask for bool {
 impl Lane for f32 {
     type Mask = bool;
     const WIDTH: usize = 1;
+    #[inline(always)]
+    fn map_f64<K: math::F64Kernel>(a: Self, b: Self) -> (Self, Self) {
+        let (x, y) = K::eval(a as f64, b as f64);
+        (x as f32, y as f32)
+    }
     #[inline(always)]
     fn splat(x: f32) -> Self {
         x
@@ -286,6 +308,11 @@ impl Mask for BVec4A {
 impl Lane for Vec4 {
     type Mask = BVec4A;
     const WIDTH: usize = 4;
+    #[inline(always)]
+    fn map_f64<K: math::F64Kernel>(a: Self, b: Self) -> (Self, Self) {
+        let (x, y) = K::eval(widen(a.to_array()), widen(b.to_array()));
+        (Vec4::from_array(narrow(x)), Vec4::from_array(narrow(y)))
+    }
     #[inline(always)]
     fn splat(x: f32) -> Self {
         Vec4::splat(x)
@@ -428,6 +455,20 @@ impl Mask for Mask8 {
 impl Lane for f32x8 {
     type Mask = Mask8;
     const WIDTH: usize = 8;
+    #[inline(always)]
+    fn map_f64<K: math::F64Kernel>(a: Self, b: Self) -> (Self, Self) {
+        let (a, b) = (a.to_array(), b.to_array());
+        let half = |v: &[f32; 8], h: usize| widen(std::array::from_fn(|i| v[4 * h + i]));
+        let (x0, y0) = K::eval(half(&a, 0), half(&b, 0));
+        let (x1, y1) = K::eval(half(&a, 1), half(&b, 1));
+        let join = |lo: wide::f64x4, hi: wide::f64x4| {
+            let (lo, hi) = (narrow(lo), narrow(hi));
+            f32x8::new(std::array::from_fn(
+                |i| if i < 4 { lo[i] } else { hi[i - 4] },
+            ))
+        };
+        (join(x0, x1), join(y0, y1))
+    }
     /// The default's tree, step for step, in vector registers: `minps` is the same
     /// `a < b ? a : b` per element.
     #[inline(always)]

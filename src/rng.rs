@@ -11,6 +11,8 @@
 //! asks `sampler.key(x, y, sample)` once per camera sample and then `key.uniform(vertex,
 //! slot)` wherever it needs a number, whatever the kind.
 
+use crate::lanes::Lane;
+
 /// An integer hash with good avalanche (Chris Wellons, "lowbias32").
 #[inline]
 pub fn hash_u32(mut x: u32) -> u32 {
@@ -151,10 +153,7 @@ impl SampleKey {
     #[inline(always)]
     pub fn uniform(self, vertex: u32, slot: u32) -> f32 {
         match self.kind {
-            SamplerKind::Independent => {
-                let dim = hash_u32(hash_u32(vertex).wrapping_add(slot));
-                to_unit(hash_u32(self.hash ^ dim))
-            }
+            SamplerKind::Independent => to_unit(hash_u32(self.hash ^ dimension_hash(vertex, slot))),
             // Out of line: inlining the structured samplers into every call site kept
             // the independent sampler's few instructions from being inlined at all.
             _ => self.structured_uniform(vertex, slot),
@@ -165,7 +164,7 @@ impl SampleKey {
     fn structured_uniform(self, vertex: u32, slot: u32) -> f32 {
         let d = Dimension::of(slot);
         // One scramble per pixel and pair of dimensions.
-        let pair = hash_u32(hash_u32(vertex).wrapping_add(d.pair));
+        let pair = dimension_hash(vertex, d.pair);
         let seed = hash_u32(self.pixel ^ pair);
         let index = self.sample.wrapping_mul(d.draws).wrapping_add(d.draw);
         if self.kind == SamplerKind::Sobol {
@@ -177,47 +176,122 @@ impl SampleKey {
     }
 }
 
-/// `SampleKey::new` for lanes of pixels (one sample index): lane i is
-/// `SampleKey::new(seed, x[i], y[i], sample)`. Plain element-wise loops over arrays,
-/// which the compiler turns into SIMD multiplies, shifts and xors: the same bits.
-#[inline]
-pub fn keys_lanes<const N: usize>(seed: u32, x: [u32; N], y: [u32; N], sample: u32) -> [u32; N] {
-    let h0 = hash_u32(seed);
-    let h = hash_lanes(x.map(|x| h0.wrapping_add(x)));
-    let mut h2 = [0; N];
-    for i in 0..N {
-        h2[i] = h[i].wrapping_add(y[i]);
+/// The keys of one camera sample (one sample index) of up to eight pixels, one a lane
+/// of a packet: [`SampleKey`]s in lanes, so that [`KeyLanes::uniform`] gives every lane
+/// its number at once. Lane k's numbers are those of `key(k)`, bit for bit.
+#[derive(Clone, Copy, Debug)]
+pub struct KeyLanes {
+    /// Each lane's `SampleKey::hash` and `SampleKey::pixel`.
+    hash: [u32; MAX_LANES],
+    pixel: [u32; MAX_LANES],
+    sample: u32,
+    spp: u32,
+    kind: SamplerKind,
+}
+
+/// The widest packet.
+const MAX_LANES: usize = 8;
+
+impl Sampler {
+    /// The keys of camera sample `sample` of pixels (x\[k\], y\[k\]), k < `width`:
+    /// `key(x[k], y[k], sample)` in lane k, the hashes made lane-wise.
+    #[inline(always)]
+    pub fn key_lanes(
+        &self,
+        width: usize,
+        x: [u32; MAX_LANES],
+        y: [u32; MAX_LANES],
+        sample: u32,
+    ) -> KeyLanes {
+        let h0 = hash_u32(self.seed);
+        let (mut pixel, mut hash) = ([0; MAX_LANES], [0; MAX_LANES]);
+        for i in 0..width {
+            pixel[i] = hash_u32(hash_u32(h0.wrapping_add(x[i])).wrapping_add(y[i]));
+            hash[i] = hash_u32(pixel[i].wrapping_add(sample));
+        }
+        KeyLanes {
+            hash,
+            pixel,
+            sample,
+            spp: self.spp,
+            kind: self.kind,
+        }
     }
-    let h = hash_lanes(h2);
-    hash_lanes(h.map(|h| h.wrapping_add(sample)))
 }
 
-/// `SampleKey::uniform` for lanes of keys.
-#[inline]
-pub fn uniform_lanes<const N: usize>(keys: [u32; N], vertex: u32, slot: u32) -> [f32; N] {
-    let dim = hash_u32(hash_u32(vertex).wrapping_add(slot));
-    hash_lanes(keys.map(|k| k ^ dim)).map(to_unit)
+impl KeyLanes {
+    /// Lane k holds `keys[k]` (keys of one sample index, sample count and kind).
+    pub fn from_keys(keys: &[SampleKey]) -> Self {
+        let first = keys[0];
+        debug_assert!(keys.len() <= MAX_LANES);
+        debug_assert!(keys
+            .iter()
+            .all(|k| (k.sample, k.spp, k.kind) == (first.sample, first.spp, first.kind)));
+        let (mut hash, mut pixel) = ([0; MAX_LANES], [0; MAX_LANES]);
+        for (i, k) in keys.iter().enumerate() {
+            (hash[i], pixel[i]) = (k.hash, k.pixel);
+        }
+        Self {
+            hash,
+            pixel,
+            sample: first.sample,
+            spp: first.spp,
+            kind: first.kind,
+        }
+    }
+
+    /// Lane k's key.
+    #[inline]
+    pub fn key(&self, k: usize) -> SampleKey {
+        SampleKey {
+            hash: self.hash[k],
+            pixel: self.pixel[k],
+            sample: self.sample,
+            spp: self.spp,
+            kind: self.kind,
+        }
+    }
+
+    /// `key(k).uniform(vertex, slot)` in every lane k. The independent and Sobol
+    /// samplers are integer multiplies, shifts and xors on every lane (vector code); the
+    /// stratified one walks a permutation cycle of its own length per lane.
+    #[inline(always)]
+    pub fn uniform<L: Lane>(&self, vertex: u32, slot: u32) -> L {
+        let mut u = [0.0f32; MAX_LANES];
+        match self.kind {
+            SamplerKind::Independent => {
+                let dim = dimension_hash(vertex, slot);
+                for (u, &h) in u.iter_mut().zip(&self.hash).take(L::WIDTH) {
+                    *u = to_unit(hash_u32(h ^ dim));
+                }
+            }
+            SamplerKind::Sobol => {
+                let d = Dimension::of(slot);
+                let pair = dimension_hash(vertex, d.pair);
+                let index = self.sample.wrapping_mul(d.draws).wrapping_add(d.draw);
+                for (u, &p) in u.iter_mut().zip(&self.pixel).take(L::WIDTH) {
+                    *u = to_unit(sobol_owen(index, hash_u32(p ^ pair), d.component));
+                }
+            }
+            SamplerKind::Stratified => self.stratified(vertex, slot, &mut u[..L::WIDTH]),
+        }
+        L::from_fn(|i| u[i])
+    }
+
+    /// The stratified sampler's numbers, lane by lane (out of line: its permutations
+    /// loop).
+    #[inline(never)]
+    fn stratified(&self, vertex: u32, slot: u32, u: &mut [f32]) {
+        for (i, u) in u.iter_mut().enumerate() {
+            *u = self.key(i).structured_uniform(vertex, slot);
+        }
+    }
 }
 
-/// `hash_u32` on every element.
+/// The hash of (path vertex, slot) that the independent sampler xors into a key.
 #[inline(always)]
-pub fn hash_lanes<const N: usize>(mut x: [u32; N]) -> [u32; N] {
-    for v in &mut x {
-        *v ^= *v >> 16;
-    }
-    for v in &mut x {
-        *v = v.wrapping_mul(0x7feb_352d);
-    }
-    for v in &mut x {
-        *v ^= *v >> 15;
-    }
-    for v in &mut x {
-        *v = v.wrapping_mul(0x846c_a68b);
-    }
-    for v in &mut x {
-        *v ^= *v >> 16;
-    }
-    x
+fn dimension_hash(vertex: u32, slot: u32) -> u32 {
+    hash_u32(hash_u32(vertex).wrapping_add(slot))
 }
 
 /// Where a slot sits among the pairs of dimensions the structured samplers stratify.
@@ -266,7 +340,7 @@ impl Dimension {
 /// The Laine–Karras-style permutation with Vegdahl's constants: an Owen scramble of the
 /// bits of `x` read from the least significant one (each output bit depends only on the
 /// input bits below it).
-#[inline]
+#[inline(always)]
 fn lk_permutation(mut x: u32, seed: u32) -> u32 {
     x ^= x.wrapping_mul(0x3d20_adea);
     x = x.wrapping_add(seed);
@@ -284,48 +358,22 @@ fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
     lk_permutation(x.reverse_bits(), seed).reverse_bits()
 }
 
-/// `DIM1_REVERSED[b][x]`: reverse(sobol₁(reverse(r))) for the bits of byte b of r, where
-/// sobol₁ is the second Sobol dimension (the xor of the direction numbers v₀ = 2³¹,
-/// vᵢ₊₁ = vᵢ ^ (vᵢ >> 1) of the index's set bits). Bit j of r is bit 31 − j of the index, so
-/// it contributes reverse(v₃₁₋ⱼ). Looked up a byte at a time.
-static DIM1_REVERSED: [[u32; 256]; 4] = dim1_reversed_tables();
-
-const fn dim1_reversed_tables() -> [[u32; 256]; 4] {
-    let mut v = [0u32; 32];
-    v[0] = 1 << 31;
-    let mut i = 1;
-    while i < 32 {
-        v[i] = v[i - 1] ^ (v[i - 1] >> 1);
-        i += 1;
-    }
-    let mut t = [[0u32; 256]; 4];
-    let mut b = 0;
-    while b < 4 {
-        let mut x = 0;
-        while x < 256 {
-            let mut r = 0u32;
-            let mut bit = 0;
-            while bit < 8 {
-                if x & (1 << bit) != 0 {
-                    r ^= v[31 - (8 * b + bit)].reverse_bits();
-                }
-                bit += 1;
-            }
-            t[b][x] = r;
-            x += 1;
-        }
-        b += 1;
-    }
-    t
-}
-
-#[inline]
+/// reverse(sobol₁(reverse(r))), where sobol₁ is the second Sobol dimension: the xor of
+/// the direction numbers v₀ = 2³¹, vᵢ₊₁ = vᵢ ^ (vᵢ >> 1) of the index's set bits. reverse(vᵢ)
+/// has bit m set when the binomial C(i, m) is odd, which by Lucas' theorem is when m's
+/// bits are a subset of i's. So with s = reverse(r), bit m of the result is the xor of
+/// the bits sᵢ over the i that contain m: a superset sum over the five bits of a bit
+/// position, one shift-and-xor step per bit (vector code, where a table lookup a byte
+/// was a gather). `tests::dim1_reversed_is_the_direction_numbers` checks it.
+#[inline(always)]
 fn dim1_reversed(r: u32) -> u32 {
-    let t = &DIM1_REVERSED;
-    t[0][(r & 0xff) as usize]
-        ^ t[1][((r >> 8) & 0xff) as usize]
-        ^ t[2][((r >> 16) & 0xff) as usize]
-        ^ t[3][(r >> 24) as usize]
+    let mut y = r.reverse_bits();
+    y ^= (y >> 1) & 0x5555_5555;
+    y ^= (y >> 2) & 0x3333_3333;
+    y ^= (y >> 4) & 0x0f0f_0f0f;
+    y ^= (y >> 8) & 0x00ff_00ff;
+    y ^= (y >> 16) & 0x0000_ffff;
+    y
 }
 
 /// Component `component` (0 or 1) of point `index` of the shuffled, Owen-scrambled 2D
@@ -337,7 +385,7 @@ fn dim1_reversed(r: u32) -> u32 {
 /// reverse(lk(reverse(r))) and component 1 reverse(lk(reverse(sobol₁(reverse(r))))), the
 /// inner part a table lookup. `tests::sobol_owen_is_the_plain_construction` checks it
 /// against the construction written out.
-#[inline]
+#[inline(always)]
 pub fn sobol_owen(index: u32, seed: u32, component: u32) -> u32 {
     let r = lk_permutation(index.reverse_bits(), seed);
     let (bits_reversed, salt) = if component == 0 {
@@ -460,16 +508,62 @@ mod tests {
         assert_ne!(k.uniform(1, 2), k.uniform(2, 1));
     }
 
+    /// Every sampler's lanes hold the scalar keys and give their numbers, bit for bit,
+    /// at widths 1, 4 and 8.
     #[test]
     fn lanes_give_the_scalar_keys_and_numbers() {
-        let xs: [u32; 8] = std::array::from_fn(|i| 100 + i as u32 % 4);
-        let ys: [u32; 8] = std::array::from_fn(|i| 7 + i as u32 / 4);
-        let keys = keys_lanes(9, xs, ys, 3);
-        let us = uniform_lanes(keys, 2, slot::JITTER_Y);
-        for i in 0..8 {
-            let k = SampleKey::new(9, xs[i], ys[i], 3);
-            assert_eq!(keys[i], k.hash);
-            assert_eq!(us[i].to_bits(), k.uniform(2, slot::JITTER_Y).to_bits());
+        fn check<L: Lane>(sampler: &Sampler, x0: u32) {
+            let xs: [u32; 8] = std::array::from_fn(|i| x0 + i as u32 % 4);
+            let ys: [u32; 8] = std::array::from_fn(|i| 7 + i as u32 / 4);
+            for sample in [0, 3, 17] {
+                let lanes = sampler.key_lanes(L::WIDTH, xs, ys, sample);
+                for i in 0..L::WIDTH {
+                    assert_eq!(lanes.key(i), sampler.key(xs[i], ys[i], sample));
+                }
+                for (vertex, sl) in [
+                    (0, slot::JITTER_Y),
+                    (2, slot::SCATTER_B),
+                    (1, slot::light(1, 7, 2)),
+                ] {
+                    let us: L = lanes.uniform(vertex, sl);
+                    for i in 0..L::WIDTH {
+                        let want = sampler.key(xs[i], ys[i], sample).uniform(vertex, sl);
+                        assert_eq!(us.lane(i).to_bits(), want.to_bits(), "{:?}", sampler.kind);
+                    }
+                }
+            }
+        }
+        for kind in SamplerKind::ALL {
+            let sampler = Sampler::new(kind, 9, 20);
+            for x0 in [0, 100, 4000] {
+                check::<f32>(&sampler, x0);
+                check::<glam::Vec4>(&sampler, x0);
+                check::<wide::f32x8>(&sampler, x0);
+            }
+        }
+    }
+
+    /// The superset-sum `dim1_reversed` is the xor of the reversed direction numbers of
+    /// the set bits, for every single bit and random words.
+    #[test]
+    fn dim1_reversed_is_the_direction_numbers() {
+        let mut v = [0u32; 32];
+        v[0] = 1 << 31;
+        for i in 1..32 {
+            v[i] = v[i - 1] ^ (v[i - 1] >> 1);
+        }
+        let plain = |r: u32| {
+            (0..32)
+                .filter(|j| r >> j & 1 != 0)
+                .fold(0u32, |acc, j| acc ^ v[31 - j].reverse_bits())
+        };
+        let mut x = 0x1234_5678u32;
+        for _ in 0..100_000 {
+            x = hash_u32(x);
+            assert_eq!(dim1_reversed(x), plain(x), "{x:#x}");
+        }
+        for j in 0..32 {
+            assert_eq!(dim1_reversed(1 << j), plain(1 << j), "bit {j}");
         }
     }
 

@@ -827,6 +827,18 @@ impl<L: Lane> PacketHits<L> {
         self.kinds[kind_slot(kind)]
     }
 
+    /// The lanes' objects (meaningful in the lanes of `found`).
+    #[inline(always)]
+    pub fn objects(&self) -> [u32; MAX_WIDTH] {
+        std::array::from_fn(|k| {
+            if k < L::WIDTH {
+                self.object.lane(k).to_bits()
+            } else {
+                0
+            }
+        })
+    }
+
     /// The lanes' primitives' indices in their kind's pool (meaningful in the lanes of
     /// `found`).
     #[inline(always)]

@@ -4,7 +4,7 @@
 //! compiles to triangles.
 
 use super::{Aabb, Ray};
-use crate::lanes::Lane;
+use crate::lanes::{Lane, V3};
 use glam::{Vec3, Vec4};
 
 /// Triangles, structure-of-arrays, stored as their three vertices, each vertex as one
@@ -281,12 +281,17 @@ pub fn is_proper_triangle([a, b, c]: [Vec3; 3]) -> bool {
 /// square onto the triangle (if ξ1 + ξ2 > 1 use 1 − ξ1, 1 − ξ2), as in the seed.
 #[inline]
 pub fn sample_triangle([a, b, c]: [Vec3; 3], xi1: f32, xi2: f32) -> Vec3 {
-    let (s, t) = if xi1 + xi2 > 1.0 {
-        (1.0 - xi1, 1.0 - xi2)
-    } else {
-        (xi1, xi2)
-    };
-    a + (b - a) * s + (c - a) * t
+    sample_triangle_lanes::<f32>([a, b, c].map(V3::splat), xi1, xi2).lane(0)
+}
+
+/// `sample_triangle` lane by lane.
+#[inline(always)]
+pub fn sample_triangle_lanes<L: Lane>([a, b, c]: [V3<L>; 3], xi1: L, xi2: L) -> V3<L> {
+    let one = L::splat(1.0);
+    let flip = (xi1 + xi2).gt(one);
+    let s = L::select(flip, one - xi1, xi1);
+    let t = L::select(flip, one - xi2, xi2);
+    a + (b - a).scale(s) + (c - a).scale(t)
 }
 
 /// Per-ray constants of the watertight ray/triangle test (Woop, Benthin, Wald, "Watertight

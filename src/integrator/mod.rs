@@ -1,29 +1,30 @@
-//! The scalar reference tracer: one ray at a time, with the seed's shading semantics
-//! (`seed-scenes.md` §3–§5).
+//! The tracer: the original program's shading semantics over lanes, one ray (the scalar
+//! reference) or a 4- or 8-wide packet at a time, image for image the same bits.
 //!
-//! - Phong and PhongMirror return a final colour; Light returns its plain colour.
-//! - Diffuse, Metal and Dielectric scatter and the path continues, up to `max_depth`.
-//! - Every random number comes from `rng::SampleKey`, addressed by path vertex and slot.
-//! - `packet`: the same tracer over 4- and 8-wide packets, image for image the same bits.
+//! - `shade`: the control flow of a path, vertex by vertex, and Phong with its light
+//!   samples and shadow rays; `scatter`: the path-traced materials' bounces.
+//! - Here: the tracer, its ray counts, the surfaces of hits, and the geometric kernels
+//!   shading runs on (written over `Lane`; the scalar tracer runs them at `f32`).
+//! - Every random number comes from `rng::KeyLanes`, addressed by path vertex and slot.
 
-mod packet;
+mod scatter;
+mod shade;
 
-pub use packet::footprint;
+pub use scatter::{random_unit_vector_lanes, scatter};
+pub use shade::footprint;
 
 use crate::accel::cull::{Cone, Cull, CullTargets};
 use crate::accel::packet::{PacketHits, MAX_WIDTH};
 use crate::accel::{Accel, TraversalStats};
 use crate::geometry::spawn::{
-    planar_point, planar_point_lanes, spawn_ray, sphere_point, sphere_point_lanes, ErrorPoint,
+    planar_point_lanes, spawn_ray, sphere_point, sphere_point_lanes, ErrorPoint,
 };
 use crate::geometry::sphere::{sphere_normal, SpherePool};
 use crate::geometry::{Hit, PrimKind, Ray};
-use crate::lanes::{all_equal, set_lanes, Lane, Mask, V3};
-use crate::material::{
-    random_unit_vector, reflect, reflect_lanes, refract, schlick, schlick_lanes, Material, Phong,
-};
-use crate::rng::{slot, SampleKey, Sampler};
-use crate::scene::{LightShape, Scene};
+use crate::lanes::{all_equal, Lane, Mask, V3};
+use crate::material::{reflect_lanes, schlick_lanes, Phong};
+use crate::rng::{KeyLanes, SampleKey, Sampler};
+use crate::scene::Scene;
 use glam::Vec3;
 
 /// Rays accept hits at t > 0 (the smallest positive normal float; the tests compare with
@@ -58,8 +59,8 @@ pub struct RayCounts {
     pub camera_packets: LaneUse,
     /// Shadow packets (see `camera_packets`).
     pub shadow_packets: LaneUse,
-    /// Mirror packets (see `camera_packets`).
-    pub mirror_packets: LaneUse,
+    /// Mirror reflections and path-traced bounces.
+    pub secondary_packets: LaneUse,
 }
 
 /// Packets of one ray kind and the lanes that held a ray.
@@ -109,7 +110,7 @@ impl RayCounts {
         self.traversal.add(&o.traversal);
         self.camera_packets.add(&o.camera_packets);
         self.shadow_packets.add(&o.shadow_packets);
-        self.mirror_packets.add(&o.mirror_packets);
+        self.secondary_packets.add(&o.secondary_packets);
     }
 }
 
@@ -164,8 +165,8 @@ pub struct Tracer<'a> {
     /// that miss the scene's bounds, camera packets' tests their tile's cone rules out
     /// (`camera_cull`). The image is the same bits either way.
     pub specialize: bool,
-    /// The packet tracer's per-object tables (`packet::ShadeTables`).
-    pub(crate) tables: packet::ShadeTables,
+    /// The per-object tables shading sorts lanes by (`shade::ShadeTables`).
+    pub(crate) tables: shade::ShadeTables,
     /// The bounding balls `camera_cull` tests (`None` for the linear scan).
     cull_targets: Option<CullTargets>,
     /// The camera sits strictly inside the scene's bounds: every camera ray meets them,
@@ -186,7 +187,7 @@ impl<'a> Tracer<'a> {
             accel,
             sampler,
             specialize: true,
-            tables: packet::ShadeTables::new(scene),
+            tables: shade::ShadeTables::new(scene),
             cull_targets: CullTargets::new(scene, accel),
             camera_inside: {
                 let (o, b) = (scene.camera.origin, &scene.bounds);
@@ -216,14 +217,10 @@ impl<'a> Tracer<'a> {
         }
     }
 
-    /// The colour of camera sample `sample` of pixel (x, y).
+    /// The colour of camera sample `sample` of pixel (x, y): `sample_packet` at `f32`.
     pub fn sample(&self, x: u32, y: u32, sample: u32, counts: &mut RayCounts) -> Vec3 {
-        let key = self.sampler.key(x, y, sample);
-        let jx = key.uniform(0, slot::JITTER_X);
-        let jy = key.uniform(0, slot::JITTER_Y);
-        let ray = self.scene.camera.ray(x, y, jx, jy);
-        counts.camera += 1;
-        self.trace(ray, key, counts)
+        self.sample_packet::<f32>(x, y, 1, sample, Cull::ALL, counts)
+            .lane(0)
     }
 
     #[inline]
@@ -258,7 +255,13 @@ impl<'a> Tracer<'a> {
             }
             PrimKind::Quad => {
                 let q = scene.quads.get(i);
-                (planar_point(q.corner, q.u, q.v, q.w, on_ray), q.normal)
+                let v = V3::<f32>::splat;
+                let (p, e) = planar_point_lanes(v(q.corner), v(q.u), v(q.v), v(q.w), v(on_ray));
+                let p = ErrorPoint {
+                    point: p.lane(0),
+                    error: e.lane(0),
+                };
+                (p, q.normal)
             }
             PrimKind::Triangle => {
                 let [a, b, c] = scene.triangles.vertices(i);
@@ -274,8 +277,8 @@ impl<'a> Tracer<'a> {
     }
 
     /// The surfaces of the hits of the lanes of `lanes` (each must have a hit), for rays
-    /// with lanes `origin`, `dir`: `surface`'s kernels over lanes. Sphere and triangle
-    /// lanes are computed lane-wise; quad lanes one at a time by the scalar code.
+    /// with lanes `origin`, `dir`: `surface`'s kernels over lanes, each kind's lanes at
+    /// once (one primitive splatted when all its lanes hit the same one).
     pub fn surface_lanes<L: Lane>(
         &self,
         origin: V3<L>,
@@ -284,8 +287,9 @@ impl<'a> Tracer<'a> {
         lanes: u32,
     ) -> SurfaceLanes<L> {
         let scene = self.scene;
-        assert!(lanes & !hits.found == 0, "a shaded lane has a hit");
+        debug_assert!(lanes & !hits.found == 0, "a shaded lane has a hit");
         let spheres = hits.of_kind(PrimKind::Sphere) & lanes;
+        let quads = hits.of_kind(PrimKind::Quad) & lanes;
         let triangles = hits.of_kind(PrimKind::Triangle) & lanes;
         let index = hits.indices();
         let t = L::select(L::Mask::from_bits(lanes), hits.t, L::splat(0.0));
@@ -307,6 +311,34 @@ impl<'a> Tracer<'a> {
             (point, error) = sphere_point_lanes(c, r, on_ray);
             outward = sphere_normal(c, r, point);
         }
+        if quads != 0 {
+            let i = own_or_first(&index, quads);
+            let pool = &scene.quads;
+            let column = |x: &[f32], y: &[f32], z: &[f32]| -> V3<L> {
+                if all_equal(&i, L::WIDTH) {
+                    let j = i[0];
+                    V3::splat(Vec3::new(x[j], y[j], z[j]))
+                } else {
+                    V3::new(
+                        L::from_fn(|k| x[i[k]]),
+                        L::from_fn(|k| y[i[k]]),
+                        L::from_fn(|k| z[i[k]]),
+                    )
+                }
+            };
+            let (p, e) = planar_point_lanes(
+                column(&pool.qx, &pool.qy, &pool.qz),
+                column(&pool.ux, &pool.uy, &pool.uz),
+                column(&pool.vx, &pool.vy, &pool.vz),
+                column(&pool.wx, &pool.wy, &pool.wz),
+                on_ray,
+            );
+            let n = V3::from_fn(|k| pool.normal(i[k]));
+            let m = L::Mask::from_bits(quads);
+            point = V3::select(m, p, point);
+            error = V3::select(m, e, error);
+            outward = V3::select(m, n, outward);
+        }
         if triangles != 0 {
             // Lanes of other kinds take the first triangle lane's triangle (replaced).
             let i = own_or_first(&index, triangles);
@@ -325,22 +357,6 @@ impl<'a> Tracer<'a> {
             error = V3::select(m, e, error);
             outward = V3::select(m, n, outward);
         }
-        let others = lanes & !spheres & !triangles;
-        if others != 0 {
-            let mut p = [ErrorPoint {
-                point: Vec3::ZERO,
-                error: Vec3::ZERO,
-            }; MAX_WIDTH];
-            let mut n = [Vec3::ZERO; MAX_WIDTH];
-            for k in set_lanes(others) {
-                let hit = hits.hit(k).expect("a shaded lane has a hit");
-                (p[k], n[k]) = self.point_and_outward(&hit, on_ray.lane(k));
-            }
-            let m = L::Mask::from_bits(others);
-            point = V3::select(m, V3::from_fn(|k| p[k].point), point);
-            error = V3::select(m, V3::from_fn(|k| p[k].error), error);
-            outward = V3::select(m, V3::from_fn(|k| n[k]), outward);
-        }
         let (normal, front) = face_forward(dir, outward);
         SurfaceLanes {
             point,
@@ -350,61 +366,15 @@ impl<'a> Tracer<'a> {
         }
     }
 
-    /// The colour a camera ray sees; path-traced materials continue the path up to
-    /// `max_depth`.
+    /// The colour a ray sees, as a camera sees it (path-traced materials continue the
+    /// path up to `max_depth`), with the random numbers of `key`.
     pub fn trace(&self, ray: Ray, key: SampleKey, counts: &mut RayCounts) -> Vec3 {
-        self.trace_from(ray, key, Vec3::ONE, 0, self.scene.max_depth, counts)
+        self.trace_ray(ray, &KeyLanes::from_keys(&[key]), counts)
     }
 
-    /// `trace` from path vertex `vertex` with `depth` bounces left and the path's
-    /// `throughput` so far (the packet tracer hands path-traced lanes over here).
-    pub fn trace_from(
-        &self,
-        mut ray: Ray,
-        key: SampleKey,
-        mut throughput: Vec3,
-        mut vertex: u32,
-        mut depth: u32,
-        counts: &mut RayCounts,
-    ) -> Vec3 {
-        let scene = self.scene;
-        loop {
-            if depth == 0 {
-                return Vec3::ZERO;
-            }
-            let Some(hit) = self.closest_hit(&ray, counts) else {
-                return throughput * scene.background;
-            };
-            let surface = self.surface(&ray, &hit);
-            let material = scene.material_of(hit.object);
-            let next_dir = match *material {
-                Material::Light { color, .. } => return throughput * color,
-                Material::Phong(ref phong) => {
-                    return throughput * self.phong(phong, &ray, &surface, key, vertex, counts)
-                }
-                Material::PhongMirror { ref phong, index } => {
-                    let c =
-                        self.phong_mirror(phong, index, &ray, &surface, key, vertex, depth, counts);
-                    return throughput * c;
-                }
-                _ => match scatter(material, &ray, &surface, key, vertex) {
-                    Some((attenuation, dir)) => {
-                        throughput *= attenuation;
-                        dir
-                    }
-                    // Absorbed by Metal: black (the seed returned the albedo here).
-                    None => return Vec3::ZERO,
-                },
-            };
-            ray = spawn_ray(&surface.point, surface.normal, next_dir);
-            counts.secondary += 1;
-            depth -= 1;
-            vertex += 1;
-        }
-    }
-
-    /// Phong shading at a surface, with shadow rays to every light: one towards a point
-    /// light's centre, `AREA_LIGHT_SAMPLES` towards random points of an area light.
+    /// Phong shading at a surface seen along `ray`, with shadow rays to every light:
+    /// one towards a point light's centre, `AREA_LIGHT_SAMPLES` towards random points of
+    /// an area light. `Tracer::phong_lanes` at `f32`.
     pub fn phong(
         &self,
         m: &Phong,
@@ -414,59 +384,35 @@ impl<'a> Tracer<'a> {
         vertex: u32,
         counts: &mut RayCounts,
     ) -> Vec3 {
-        let view = -ray.dir;
-        self.phong_with(m, ray, s, |li, k| {
-            let l = self.light_direction(s, key, vertex, li, k)?;
-            if self.specialize && adds_nothing(s.normal, l, view, m.shininess) {
-                counts.shadow_culled += 1;
-                return Some((l, false));
-            }
-            counts.shadow += 1;
-            let shadow_ray = spawn_ray(&s.point, s.normal, l);
-            let visible = self.accel.light_visible(
-                self.scene,
-                &shadow_ray,
-                T_MIN,
-                &self.scene.lights[li],
-                &mut counts.traversal,
-            );
-            Some((l, visible))
-        })
+        let surface = SurfaceLanes {
+            point: V3::splat(s.point.point),
+            error: V3::splat(s.point.error),
+            normal: V3::splat(s.normal),
+            front: s.front_face as u32,
+        };
+        let keys = KeyLanes::from_keys(&[key]);
+        let view = -V3::<f32>::splat(ray.dir);
+        self.phong_lanes(
+            &PhongLanes::splat(m),
+            &surface,
+            view,
+            &keys,
+            vertex,
+            1,
+            counts,
+        )
+        .lane(0)
     }
 
-    /// The unit direction from a surface to sample `k` of light `li`, or `None` when
-    /// the sample is the point itself.
-    #[inline]
-    pub fn light_direction(
-        &self,
-        s: &Surface,
-        key: SampleKey,
-        vertex: u32,
-        li: usize,
-        k: u32,
-    ) -> Option<Vec3> {
-        let target = self.light_target(key, vertex, li, k);
-        let (l, valid) = direction_to::<f32>(V3::splat(target), V3::splat(s.point.point));
-        valid.then(|| l.lane(0))
-    }
-
-    /// Sample `k` of light `li`: a point light's centre, or a random point of an area
-    /// light.
-    #[inline]
+    /// Sample `k` of light `li` at path vertex `vertex`: a point light's centre, or a
+    /// random point of an area light.
     pub fn light_target(&self, key: SampleKey, vertex: u32, li: usize, k: u32) -> Vec3 {
-        let light = &self.scene.lights[li];
-        match light.shape {
-            LightShape::Point { center, .. } => center,
-            _ => {
-                let u = |c| key.uniform(vertex, slot::light(li as u32, k, c));
-                light.sample(u(0), u(1), u(2))
-            }
-        }
+        let keys = KeyLanes::from_keys(&[key]);
+        shade::light_targets::<f32>(&self.scene.lights[li], li as u32, k, &keys, vertex).lane(0)
     }
 
-    /// Shadow ray `k` of light `li` from a surface: the direction to the light sample
-    /// and the spawned ray.
-    #[inline]
+    /// Shadow ray `k` of light `li` from a surface: the unit direction to the light
+    /// sample and the spawned ray, or `None` when the sample is the point itself.
     pub fn shadow_ray(
         &self,
         s: &Surface,
@@ -475,137 +421,25 @@ impl<'a> Tracer<'a> {
         li: usize,
         k: u32,
     ) -> Option<(Vec3, Ray)> {
-        let l = self.light_direction(s, key, vertex, li, k)?;
-        Some((l, spawn_ray(&s.point, s.normal, l)))
-    }
-
-    /// Phong shading with the light samples given by `sample(light, k)`: the unit
-    /// direction to the sample and whether the shadow ray reaches it, or `None` when the
-    /// sample is the point itself. The scalar tracer traces the shadow ray there.
-    pub fn phong_with(
-        &self,
-        m: &Phong,
-        ray: &Ray,
-        s: &Surface,
-        mut sample: impl FnMut(usize, u32) -> Option<(Vec3, bool)>,
-    ) -> Vec3 {
-        let c = phong_lanes::<f32>(
-            &PhongLanes::splat(m),
-            self.scene,
-            V3::splat(s.normal),
-            V3::splat(-ray.dir),
-            |li, k| match sample(li, k) {
-                Some((l, visible)) => (visible as u32, V3::splat(l)),
-                None => (0, V3::splat(Vec3::ZERO)),
-            },
-        );
-        c.lane(0)
-    }
-
-    /// Phong mixed with one mirror reflection: (1 − F)·Phong + F·reflected, F by Schlick.
-    #[allow(clippy::too_many_arguments)]
-    pub fn phong_mirror(
-        &self,
-        m: &Phong,
-        index: f32,
-        ray: &Ray,
-        s: &Surface,
-        key: SampleKey,
-        vertex: u32,
-        budget: u32,
-        counts: &mut RayCounts,
-    ) -> Vec3 {
-        let local = self.phong(m, ray, s, key, vertex, counts);
-        let (d, n) = (V3::splat(ray.dir), V3::splat(s.normal));
-        let reflected_ray = spawn_ray(&s.point, s.normal, mirror_direction::<f32>(d, n).lane(0));
-        counts.secondary += 1;
-        let reflected = self.evaluate_once(&reflected_ray, key, vertex + 1, budget - 1, counts);
-        let f = mirror_fresnel::<f32>(d, n, index);
-        local * (1.0 - f) + reflected * f
-    }
-
-    /// What a mirror sees: the hit surface's material evaluated once, its bounce discarded
-    /// (Diffuse and Metal give their albedo, Dielectric white), as in the seed. Mirror
-    /// chains stop after `budget` reflections (the seed's recursion had no bound).
-    fn evaluate_once(
-        &self,
-        ray: &Ray,
-        key: SampleKey,
-        vertex: u32,
-        budget: u32,
-        counts: &mut RayCounts,
-    ) -> Vec3 {
-        if budget == 0 {
-            return Vec3::ZERO;
-        }
-        let Some(hit) = self.closest_hit(ray, counts) else {
-            return self.scene.background;
-        };
-        let s = self.surface(ray, &hit);
-        match *self.scene.material_of(hit.object) {
-            Material::Light { color, .. } => color,
-            Material::Phong(ref phong) => self.phong(phong, ray, &s, key, vertex, counts),
-            Material::PhongMirror { ref phong, index } => {
-                self.phong_mirror(phong, index, ray, &s, key, vertex, budget, counts)
-            }
-            Material::Diffuse { albedo } | Material::Metal { albedo, .. } => albedo,
-            Material::Dielectric { .. } => Vec3::ONE,
-        }
+        let target = self.light_target(key, vertex, li, k);
+        let (l, valid) = direction_to::<f32>(V3::splat(target), V3::splat(s.point.point));
+        valid.then(|| (l.lane(0), spawn_ray(&s.point, s.normal, l.lane(0))))
     }
 }
 
-/// Does a light sample add exactly zero to Phong whether it is lit or not? True when
-/// N·L ≤ 0 (no diffuse term) and the specular term, computed as `phong_lanes` computes it,
-/// is zero. (The seed's specular term is not gated by N·L, so N·L ≤ 0 alone is not
-/// enough: a grazing light behind the surface can still add a highlight.) The terms
-/// are added to sums that start at +0 and never go negative, so adding +0 or skipping
-/// gives the same bits.
-#[inline]
-pub fn adds_nothing(normal: Vec3, l: Vec3, view: Vec3, shininess: f32) -> bool {
-    let (normal, l, view) = (V3::splat(normal), V3::splat(l), V3::splat(view));
-    adds_nothing_lanes::<f32>(normal, l, view, &[shininess; MAX_WIDTH], 1) != 0
-}
-
-/// `adds_nothing` over lanes (the scalar one is this kernel at `f32`): the lanes of
-/// `lanes` whose sample adds nothing. `powf` is the same scalar call per lane, made only
-/// for lanes with N·L ≤ 0.
-#[inline(always)]
-pub fn adds_nothing_lanes<L: Lane>(
-    normal: V3<L>,
-    l: V3<L>,
-    view: V3<L>,
-    shininess: &[f32; MAX_WIDTH],
-    lanes: u32,
-) -> u32 {
-    let n_dot_l = normal.dot(l);
-    let unlit = (!n_dot_l.gt(L::splat(0.0))).bits() & lanes;
-    if unlit == 0 {
-        return 0;
-    }
-    let r = normalize_or_zero(normal.scale(L::splat(2.0) * n_dot_l) - l);
-    let r_dot_v = r.dot(view);
-    // Lanes whose specular term is +0 without a powf (`pow_is_zero`), then powf.
-    let mut nothing = pow_is_zero(shininess, r_dot_v) & unlit;
-    for k in set_lanes(unlit & !nothing) {
-        if r_dot_v.lane(k).max(0.0).powf(shininess[k]) == 0.0 {
-            nothing |= 1 << k;
-        }
-    }
-    nothing
-}
-
-/// The lanes where `max(r, 0).powf(n)` is +0 for certain, so the specular term needs
-/// no powf: those with n·(1 − r) ≥ 112 (n the lane's shininess, r its R·V). For
+/// The lanes where `pow(max(r, 0), n)` is +0 for certain, so the specular term needs
+/// no pow: those with n·(1 − r) ≥ 112 (n the lane's shininess, r its R·V). For
 /// 0 ≤ r < 1, ln r ≤ r − 1 ≤ −112/n, so rⁿ ≤ e⁻¹¹² < 2⁻¹⁶¹, eleven binades below half
-/// the smallest subnormal (2⁻¹⁵⁰): powf (glibc: under 1 ulp) rounds it to +0. For r < 0
-/// the base is +0 and n > 0 (the product is positive), so powf gives +0. (112 > 160·ln 2
-/// leaves room for the product's rounding.) n ≤ 0, r ≥ 1 and NaNs never qualify. The
-/// shininess of `bunny`'s mesh (500) and mirror (1000) makes most lanes qualify:
-/// `phong_lanes` spent a tenth of its time in powf. A multiply, no division.
+/// the smallest subnormal (2⁻¹⁵⁰): `lanes::math::pow` (within one ulp) rounds it to +0.
+/// For r < 0 the base is +0 and n > 0 (the product is positive), so pow gives +0.
+/// (112 > 160·ln 2 leaves room for the product's rounding.) n ≤ 0, r ≥ 1 and NaNs never
+/// qualify. The shininess of `bunny`'s mesh (500) and mirror (1000) makes most lanes
+/// qualify. A multiply, no division.
 #[inline(always)]
-fn pow_is_zero<L: Lane>(shininess: &[f32; MAX_WIDTH], r_dot_v: L) -> u32 {
-    let n = L::from_fn(|i| shininess[i]);
-    (n * (L::splat(1.0) - r_dot_v)).ge(L::splat(112.0)).bits()
+fn pow_is_zero<L: Lane>(shininess: L, r_dot_v: L) -> u32 {
+    (shininess * (L::splat(1.0) - r_dot_v))
+        .ge(L::splat(112.0))
+        .bits()
 }
 
 /// The unit normals facing the rays along `dir` and the lanes that arrived on the side
@@ -691,7 +525,7 @@ pub struct PhongLanes<L> {
     pub ka: L,
     pub kd: L,
     pub ks: L,
-    pub shininess: [f32; MAX_WIDTH],
+    pub shininess: L,
 }
 
 impl<L: Lane> PhongLanes<L> {
@@ -703,7 +537,7 @@ impl<L: Lane> PhongLanes<L> {
             ka: L::splat(m.ka),
             kd: L::splat(m.kd),
             ks: L::splat(m.ks),
-            shininess: [m.shininess; MAX_WIDTH],
+            shininess: L::splat(m.shininess),
         }
     }
 
@@ -728,7 +562,7 @@ impl<L: Lane> PhongLanes<L> {
             ka: L::from_fn(|i| m(i).ka),
             kd: L::from_fn(|i| m(i).kd),
             ks: L::from_fn(|i| m(i).ks),
-            shininess: std::array::from_fn(|i| if i < L::WIDTH { m(i).shininess } else { 0.0 }),
+            shininess: L::from_fn(|i| m(i).shininess),
         }
     }
 }
@@ -742,132 +576,6 @@ pub fn normalize_or_zero<L: Lane>(v: V3<L>) -> V3<L> {
     V3::select(ok, v.scale(rcp), V3::splat(Vec3::ZERO))
 }
 
-/// Phong at the lanes' surfaces (`seed-scenes.md` §3): ambient, plus per light the mean
-/// over its samples of the diffuse and specular terms of the samples that see it.
-/// `sample(light, k)` gives the lanes lit by sample `k` (a bit mask) and the unit
-/// directions to it. The scalar tracer runs it on one lane; `powf` is the same scalar
-/// call on every lane. (N·L is clamped by `Lane::max`, which may turn a −0 into +0: the
-/// sums it feeds start at +0, so the bits cannot change.)
-#[inline]
-pub fn phong_lanes<L: Lane>(
-    m: &PhongLanes<L>,
-    scene: &Scene,
-    normal: V3<L>,
-    view: V3<L>,
-    mut sample: impl FnMut(usize, u32) -> (u32, V3<L>),
-) -> V3<L> {
-    let zero = V3::splat(Vec3::ZERO);
-    let (mut diffuse, mut specular) = (zero, zero);
-    for (li, light) in scene.lights.iter().enumerate() {
-        let n = light.samples();
-        let radiance = V3::<L>::splat(light.radiance);
-        let (mut light_diffuse, mut light_specular) = (zero, zero);
-        for k in 0..n {
-            let (lit, l) = sample(li, k);
-            if lit == 0 {
-                continue;
-            }
-            let mask = L::Mask::from_bits(lit);
-            let n_dot_l = normal.dot(l);
-            let d = light_diffuse + radiance.scale(n_dot_l.max(L::splat(0.0)));
-            light_diffuse = V3::select(mask, d, light_diffuse);
-            // The seed's specular term is not gated by N·L > 0.
-            let r = normalize_or_zero(normal.scale(L::splat(2.0) * n_dot_l) - l);
-            let r_dot_v = r.dot(view);
-            // powf only where it can be other than +0 (`pow_is_zero`).
-            let need = lit & !pow_is_zero(&m.shininess, r_dot_v);
-            let spec = if need == 0 {
-                L::splat(0.0)
-            } else {
-                L::from_fn(|i| {
-                    if need >> i & 1 != 0 {
-                        r_dot_v.lane(i).max(0.0).powf(m.shininess[i])
-                    } else {
-                        0.0
-                    }
-                })
-            };
-            light_specular =
-                V3::select(mask, light_specular + radiance.scale(spec), light_specular);
-        }
-        // x / 1 is x, bit for bit (a point light's one sample): no division then.
-        let mean = |v: V3<L>| {
-            if n == 1 {
-                return v;
-            }
-            let n = L::splat(n as f32);
-            V3::new(v.x / n, v.y / n, v.z / n)
-        };
-        diffuse = diffuse + mean(light_diffuse);
-        specular = specular + mean(light_specular);
-    }
-    let sum = V3::splat(scene.ambient).scale(m.ka) + diffuse.scale(m.kd) + specular.scale(m.ks);
-    V3::new(m.albedo.x * sum.x, m.albedo.y * sum.y, m.albedo.z * sum.z)
-}
-
-/// The bounce of a path-traced material (Diffuse, Metal, Dielectric): attenuation and new
-/// direction, or `None` when Metal absorbs the ray or the material does not scatter.
-pub fn scatter(
-    m: &Material,
-    ray: &Ray,
-    s: &Surface,
-    key: SampleKey,
-    vertex: u32,
-) -> Option<(Vec3, Vec3)> {
-    match *m {
-        Material::Diffuse { albedo } => Some((albedo, diffuse_direction(s.normal, key, vertex))),
-        Material::Metal { albedo, fuzz } => {
-            metal_direction(ray, s, fuzz, key, vertex).map(|d| (albedo, d))
-        }
-        Material::Dielectric { index } => {
-            Some((Vec3::ONE, dielectric_direction(ray, s, index, key, vertex)))
-        }
-        _ => None,
-    }
-}
-
-/// Diffuse bounce: normal + uniform unit vector, the normal itself if that sum vanishes.
-fn diffuse_direction(normal: Vec3, key: SampleKey, vertex: u32) -> Vec3 {
-    let r = random_unit_vector(
-        key.uniform(vertex, slot::SCATTER_A),
-        key.uniform(vertex, slot::SCATTER_B),
-    );
-    let d = normal + r;
-    if d.abs().cmplt(Vec3::splat(1e-8)).all() {
-        normal
-    } else {
-        d.normalize()
-    }
-}
-
-/// Metal bounce: mirror direction plus fuzz; `None` (absorbed) if it points into the surface.
-fn metal_direction(ray: &Ray, s: &Surface, fuzz: f32, key: SampleKey, vertex: u32) -> Option<Vec3> {
-    let r = random_unit_vector(
-        key.uniform(vertex, slot::SCATTER_A),
-        key.uniform(vertex, slot::SCATTER_B),
-    );
-    let d = (reflect(ray.dir, s.normal).normalize() + r * fuzz).normalize_or_zero();
-    (d.dot(s.normal) > 0.0).then_some(d)
-}
-
-/// Dielectric: reflect on total internal reflection or with Schlick's probability
-/// (evaluated with the index ratio, as in the seed), else refract by Snell's law.
-fn dielectric_direction(ray: &Ray, s: &Surface, index: f32, key: SampleKey, vertex: u32) -> Vec3 {
-    let ratio = if s.front_face { 1.0 / index } else { index };
-    let cosine = (-ray.dir.dot(s.normal)).min(1.0);
-    let sine = (1.0 - cosine * cosine).max(0.0).sqrt();
-    let choice = key.uniform(vertex, slot::SCATTER_CHOICE);
-    let reflects = ratio * sine > 1.0 || schlick(cosine, ratio) > choice;
-    let refracted = if reflects {
-        None
-    } else {
-        refract(ray.dir, s.normal, ratio)
-    };
-    refracted
-        .unwrap_or_else(|| reflect(ray.dir, s.normal))
-        .normalize()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -875,11 +583,11 @@ mod tests {
     use glam::Vec4;
     use wide::f32x8;
 
-    /// Where `pow_is_zero` says so, powf is +0: a grid of shininess (112 to 2e6, ∞,
+    /// Where `pow_is_zero` says so, pow is +0: a grid of shininess (112 to 2e6, ∞,
     /// and small, zero, negative, NaN) and R·V (−2 to 1.5, every float just below 1,
     /// NaN), 8-wide and scalar alike. And it does say so often.
     #[test]
-    fn pow_is_zero_only_where_powf_is_plus_zero() {
+    fn pow_is_zero_only_where_pow_is_plus_zero() {
         let mut ns: Vec<f32> = (0..500).map(|i| 112.0 * 1.02f32.powi(i)).collect();
         ns.extend([111.9, 60.0, 1.0, 0.0, -0.0, -3.0, -1e4, f32::INFINITY]);
         ns.extend([f32::NEG_INFINITY, f32::NAN, 500.0, 1000.0]);
@@ -895,12 +603,12 @@ mod tests {
             for chunk in rs.chunks(8) {
                 let mut r = [f32::NAN; 8];
                 r[..chunk.len()].copy_from_slice(chunk);
-                let bits8 = pow_is_zero::<f32x8>(&[n; MAX_WIDTH], f32x8::from(r));
+                let bits8 = pow_is_zero::<f32x8>(f32x8::splat(n), f32x8::from(r));
                 for (k, &x) in chunk.iter().enumerate() {
-                    let zero = pow_is_zero::<f32>(&[n; MAX_WIDTH], x) != 0;
+                    let zero = pow_is_zero::<f32>(n, x) != 0;
                     assert_eq!(zero, bits8 >> k & 1 != 0, "{x} {n}: 8-wide");
                     if zero {
-                        let p = x.max(0.0).powf(n);
+                        let p = crate::lanes::math::pow(x.max(0.0), n);
                         assert!(p == 0.0 && p.is_sign_positive(), "{x}^{n} = {p}");
                         skipped += 1;
                     } else {
@@ -1102,15 +810,11 @@ mod tests {
                 o.extend([mask::<L>(front), mask::<L>(valid)]);
                 o.push(mirror_fresnel(a, b, index));
                 o.push(schlick_lanes(x[7], index));
-                let shininess: [f32; MAX_WIDTH] =
-                    std::array::from_fn(|i| x[8].lane(i.min(L::WIDTH - 1)).abs() * 500.0);
-                let view = v3(&x[7..]);
-                let lanes = (1u32 << L::WIDTH) - 1;
-                o.push(bits::<L>(adds_nothing_lanes(a, b, view, &shininess, lanes)));
+                o.push(bits::<L>(pow_is_zero(x[8].abs() * L::splat(500.0), x[9])));
                 o
             }
         }
-        check::<K>("face_forward, direction_to, mirror, schlick, adds_nothing");
+        check::<K>("face_forward, direction_to, mirror, schlick, pow_is_zero");
     }
 
     #[test]
@@ -1128,7 +832,8 @@ mod tests {
         // Schlick at normal incidence for 1/1.5 is 0.04: any choice above it refracts.
         let mut refracted = 0;
         for i in 0..100 {
-            let d = dielectric_direction(&ray, &s, 1.5, SampleKey::from_hash(i), 0);
+            let glass = crate::material::Material::Dielectric { index: 1.5 };
+            let (_, d) = scatter(&glass, &ray, &s, SampleKey::from_hash(i), 0).unwrap();
             if d == -Vec3::Z {
                 refracted += 1;
             } else {

@@ -15,6 +15,7 @@ use crate::geometry::quad::{box_faces, Quad};
 use crate::geometry::sphere::sphere_intersect;
 use crate::geometry::triangle::{is_proper_triangle, WatertightRay};
 use crate::geometry::{beats, Aabb, QuadPool, Ray, SpherePool, TrianglePool};
+use crate::lanes::{Lane, V3};
 use crate::material::{Material, Phong};
 use desc::{AspectDesc, MaterialDesc, ObjectDesc, SceneDesc};
 use glam::{DVec3, Vec3};
@@ -225,18 +226,58 @@ impl Light {
         }
     }
 
+    /// The primitives the light is sampled on (one for a point light).
+    pub fn primitives(&self) -> usize {
+        match &self.shape {
+            LightShape::Point { .. } => 1,
+            LightShape::Quads(qs) => qs.len(),
+            LightShape::Triangles(ts) => ts.len(),
+        }
+    }
+
     /// A point on the light from three uniform numbers: `pick` chooses the face or
-    /// triangle, `xi1`, `xi2` the point on it.
+    /// triangle, `xi1`, `xi2` the point on it. `sample_lanes` at `f32`.
     #[inline]
     pub fn sample(&self, pick: f32, xi1: f32, xi2: f32) -> Vec3 {
-        fn index(pick: f32, n: usize) -> usize {
-            ((pick * n as f32) as usize).min(n - 1)
-        }
+        self.sample_lanes::<f32>(pick, xi1, xi2).lane(0)
+    }
+
+    /// `sample` lane by lane: a quad's point corner + u·ξ₁ + v·ξ₂, a triangle's
+    /// `sample_triangle`, with one primitive splatted, several gathered per lane.
+    #[inline(always)]
+    pub fn sample_lanes<L: Lane>(&self, pick: L, xi1: L, xi2: L) -> V3<L> {
+        let index = |n: usize| -> [usize; 8] {
+            std::array::from_fn(|k| {
+                if k < L::WIDTH {
+                    ((pick.lane(k) * n as f32) as usize).min(n - 1)
+                } else {
+                    0
+                }
+            })
+        };
         match &self.shape {
-            LightShape::Point { center, .. } => *center,
-            LightShape::Quads(qs) => qs[index(pick, qs.len())].sample(xi1, xi2),
+            LightShape::Point { center, .. } => V3::splat(*center),
+            LightShape::Quads(qs) => {
+                let (corner, u, v) = if let [q] = qs.as_slice() {
+                    (V3::splat(q.corner), V3::splat(q.u), V3::splat(q.v))
+                } else {
+                    let i = index(qs.len());
+                    (
+                        V3::from_fn(|k| qs[i[k]].corner),
+                        V3::from_fn(|k| qs[i[k]].u),
+                        V3::from_fn(|k| qs[i[k]].v),
+                    )
+                };
+                corner + u.scale(xi1) + v.scale(xi2)
+            }
             LightShape::Triangles(ts) => {
-                crate::geometry::triangle::sample_triangle(ts[index(pick, ts.len())], xi1, xi2)
+                let i = index(ts.len());
+                let vertex = |j: usize| V3::from_fn(|k| ts[i[k]][j]);
+                crate::geometry::triangle::sample_triangle_lanes(
+                    [vertex(0), vertex(1), vertex(2)],
+                    xi1,
+                    xi2,
+                )
             }
         }
     }

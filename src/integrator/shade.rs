@@ -1,0 +1,659 @@
+//! The shading control flow, written once over lanes: the scalar tracer runs it at `f32`
+//! (one ray), the packet tracer at 4 and 8 lanes (2x2 and 4x2 pixels, one sample index).
+//!
+//! A path is a loop over its vertices, not a recursion. At each vertex the lanes'
+//! rays are traced together and every lane either ends (adding the light it sees,
+//! times its path weight, to its colour) or goes on with a new ray:
+//! - a miss sees the background, a light its plain colour, Phong its local shading;
+//! - PhongMirror adds (1 − F) · Phong and goes on along the mirror direction with its
+//!   weight times F (Schlick's F); from then on the lane sees what a mirror sees;
+//! - Diffuse, Metal and Dielectric scatter (weight times the attenuation) while the
+//!   lane sees what a camera sees; what a mirror sees of them is their albedo (white
+//!   for Dielectric), as in the original program; Metal absorbing a ray ends it black.
+//!
+//! The vertex number is the same for every lane (each iteration is one vertex), so the
+//! random numbers of lane k are those of the scalar path of its pixel, and the budget
+//! of bounces and reflections is `max_depth − vertex` for all. Every lane computes what
+//! the scalar tracer computes for its pixel: the image is the same bits at every width.
+
+use super::scatter::{scatter_lanes, ScatterLanes};
+use super::{
+    direction_to, mirror_direction, mirror_fresnel, normalize_or_zero, pow_is_zero, PhongLanes,
+    RayCounts, SurfaceLanes, Tracer, T_MIN,
+};
+use crate::accel::cull::Cull;
+use crate::accel::packet::{PacketHits, RayPacket, MAX_WIDTH};
+use crate::geometry::spawn::spawn_origin;
+use crate::geometry::Ray;
+use crate::lanes::math::pow;
+use crate::lanes::{all_equal, Lane, Mask, V3};
+use crate::material::{Material, Phong};
+use crate::rng::{slot, KeyLanes};
+use crate::scene::{Light, Scene};
+use glam::Vec3;
+
+/// Shading classes of `ShadeTables::class`.
+pub(super) const MISS: usize = 0;
+pub(super) const LIGHT: usize = 1;
+pub(super) const PHONG: usize = 2;
+pub(super) const MIRROR: usize = 3;
+pub(super) const DIFFUSE: usize = 4;
+pub(super) const METAL: usize = 5;
+pub(super) const DIELECTRIC: usize = 6;
+const CLASSES: usize = 7;
+/// A lane past the packet's width: in no class (its bit stays inside its byte).
+const NO_LANE: u8 = 7;
+/// The Phong material of a packet while no Phong lane is seen, and once two differ.
+const NO_PHONG: u32 = u32::MAX;
+const MIXED_PHONG: u32 = u32::MAX - 1;
+/// Up to this many objects, the lanes are sorted by one lane compare per object rather
+/// than a table lookup per lane (`ShadeTables::few`).
+const FEW_OBJECTS: usize = 8;
+
+/// The lanes of each class, from the lanes' classes. Byte k of `onehot` is
+/// 1 << (lane k's class); class c's lanes are bit c of each byte, gathered into the top
+/// byte by one multiply (its partial products land on distinct bits, so nothing
+/// carries). All in registers: `by_class[class] |= 1 << k` went through memory and
+/// failed its store-to-load forwarding when the mask was read back (perf).
+#[inline(always)]
+fn lanes_by_class(classes: [u8; MAX_WIDTH]) -> [u32; CLASSES] {
+    let mut onehot = 0u64;
+    for (k, &c) in classes.iter().enumerate() {
+        onehot |= (1u64 << c) << (8 * k);
+    }
+    std::array::from_fn(|c| {
+        ((onehot >> c & 0x0101_0101_0101_0101).wrapping_mul(0x0102_0408_1020_4080) >> 56) as u32
+    })
+}
+
+/// What shading needs of a hit's object, indexed by object + 1 (entry 0: no hit), so
+/// lanes are sorted by table lookups instead of a `match` per lane (a lane's material is
+/// a coin toss for the branch predictor).
+#[derive(Clone, Debug)]
+pub(crate) struct ShadeTables {
+    class: Vec<u8>,
+    /// The colour a lane adds at this object when its path ends there: a light's plain
+    /// colour; the albedo a mirror sees of Diffuse and Metal, white for Dielectric.
+    seen: Vec<Vec3>,
+    /// PhongMirror's and Dielectric's index, Metal's fuzz (0 elsewhere).
+    index: Vec<f32>,
+    /// Phong parameters by material index (default for the others).
+    phong: Vec<Phong>,
+    /// The index into `phong` of the object's material (0 for entry 0).
+    phong_of: Vec<u32>,
+    /// At most `FEW_OBJECTS` objects (`bunny`: four).
+    few: bool,
+}
+
+impl ShadeTables {
+    pub(crate) fn new(scene: &Scene) -> Self {
+        let objects = scene.object_material.len();
+        let mut t = ShadeTables {
+            class: vec![MISS as u8; objects + 1],
+            seen: vec![Vec3::ZERO; objects + 1],
+            index: vec![0.0; objects + 1],
+            phong: vec![Phong::default(); scene.materials.len().max(1)],
+            phong_of: vec![0; objects + 1],
+            few: objects <= FEW_OBJECTS,
+        };
+        for (i, m) in scene.materials.iter().enumerate() {
+            if let Material::Phong(p) | Material::PhongMirror { phong: p, .. } = *m {
+                t.phong[i] = p;
+            }
+        }
+        for (o, &mi) in scene.object_material.iter().enumerate() {
+            let (class, seen, index) = match scene.materials[mi as usize] {
+                Material::Light { color, .. } => (LIGHT, color, 0.0),
+                Material::Phong(_) => (PHONG, Vec3::ZERO, 0.0),
+                Material::PhongMirror { index, .. } => (MIRROR, Vec3::ZERO, index),
+                Material::Diffuse { albedo } => (DIFFUSE, albedo, 0.0),
+                Material::Metal { albedo, fuzz } => (METAL, albedo, fuzz),
+                Material::Dielectric { index } => (DIELECTRIC, Vec3::ONE, index),
+            };
+            t.class[o + 1] = class as u8;
+            t.seen[o + 1] = seen;
+            t.index[o + 1] = index;
+            t.phong_of[o + 1] = mi;
+        }
+        t
+    }
+}
+
+/// The pixels a packet of `width` lanes covers: 4x2 for 8 lanes, 2x2 for 4, 1x1 for 1.
+pub const fn footprint(width: usize) -> (u32, u32) {
+    match width {
+        8 => (4, 2),
+        4 => (2, 2),
+        _ => (1, 1),
+    }
+}
+
+/// The paths of a packet's lanes between two vertices.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Paths<L> {
+    /// The rays to trace next (finite in every lane; only the `active` ones count).
+    origin: V3<L>,
+    dir: V3<L>,
+    /// The lanes whose path goes on.
+    active: u32,
+    /// The lanes past a PhongMirror: they see what a mirror sees.
+    mirror: u32,
+    /// What the light the path gathers from here on is multiplied by: the attenuations
+    /// of its bounces and the Fresnel weights of its mirrors.
+    weight: V3<L>,
+    /// The light gathered so far.
+    color: V3<L>,
+}
+
+impl<L: Lane> Paths<L> {
+    /// Paths starting with the rays `origin`, `dir` in the lanes of `active`.
+    #[inline(always)]
+    pub(crate) fn new(origin: V3<L>, dir: V3<L>, active: u32) -> Self {
+        Self {
+            origin,
+            dir,
+            active,
+            mirror: 0,
+            weight: V3::splat(Vec3::ONE),
+            color: V3::splat(Vec3::ZERO),
+        }
+    }
+}
+
+/// Lane k is `table[object[k]]` where the lanes of `lanes` (not empty) read it; one
+/// splat when they all name the same entry.
+#[inline(always)]
+fn gather<L: Lane>(table: &[f32], object: &[u32; MAX_WIDTH], lanes: u32) -> L {
+    let first = object[lanes.trailing_zeros() as usize];
+    let o: [u32; MAX_WIDTH] = std::array::from_fn(|k| {
+        if lanes >> k & 1 != 0 {
+            object[k]
+        } else {
+            first
+        }
+    });
+    if all_equal(&o, L::WIDTH) {
+        L::splat(table[first as usize])
+    } else {
+        L::from_fn(|k| table[o[k] as usize])
+    }
+}
+
+/// `gather` of a table of colours.
+#[inline(always)]
+fn gather3<L: Lane>(table: &[Vec3], object: &[u32; MAX_WIDTH], lanes: u32) -> V3<L> {
+    let first = object[lanes.trailing_zeros() as usize];
+    let o: [u32; MAX_WIDTH] = std::array::from_fn(|k| {
+        if lanes >> k & 1 != 0 {
+            object[k]
+        } else {
+            first
+        }
+    });
+    if all_equal(&o, L::WIDTH) {
+        V3::splat(table[first as usize])
+    } else {
+        V3::from_fn(|k| table[o[k] as usize])
+    }
+}
+
+/// `acc + weight · c` in the lanes of `lanes`, `acc` elsewhere.
+#[inline(always)]
+fn add_weighted<L: Lane>(acc: V3<L>, weight: V3<L>, c: V3<L>, lanes: u32) -> V3<L> {
+    let sum = acc + V3::new(weight.x * c.x, weight.y * c.y, weight.z * c.z);
+    V3::select(L::Mask::from_bits(lanes), sum, acc)
+}
+
+impl Tracer<'_> {
+    /// Camera sample `sample` of the pixels of a packet whose lane 0 is pixel (x0, y0):
+    /// lane i is pixel (x0 + i mod w, y0 + i div w) of the footprint, traced if bit i
+    /// of `active` is set. Lane i's colour is `sample(x, y, sample)` of its pixel (zero
+    /// in the lanes not traced).
+    /// `cull`: what the packet's rays may hit, from `camera_cull` of a rectangle holding
+    /// its pixels (`Cull::ALL` to test everything).
+    pub fn sample_packet<L: Lane>(
+        &self,
+        x0: u32,
+        y0: u32,
+        active: u32,
+        sample: u32,
+        cull: Cull,
+        counts: &mut RayCounts,
+    ) -> V3<L> {
+        let scene = self.scene;
+        counts.camera += active.count_ones() as u64;
+        if L::WIDTH > 1 {
+            counts.camera_packets.record(active);
+        }
+        if cull.nothing && scene.max_depth > 0 {
+            // No ray of the packet can hit anything: the background, as a miss gives it
+            // (0 + 1 · background, the same bits), without making the rays.
+            counts.packets_outside += 1;
+            return V3::select(
+                L::Mask::from_bits(active),
+                V3::splat(scene.background),
+                V3::splat(Vec3::ZERO),
+            );
+        }
+        let (fw, _) = footprint(L::WIDTH);
+        let xs: [u32; MAX_WIDTH] = std::array::from_fn(|k| x0 + k as u32 % fw);
+        let ys: [u32; MAX_WIDTH] = std::array::from_fn(|k| y0 + k as u32 / fw);
+        let keys = self.sampler.key_lanes(L::WIDTH, xs, ys, sample);
+        let dir = scene.camera.directions(
+            L::from_fn(|k| xs[k] as f32),
+            L::from_fn(|k| ys[k] as f32),
+            keys.uniform(0, slot::JITTER_X),
+            keys.uniform(0, slot::JITTER_Y),
+        );
+        let paths = Paths::new(V3::splat(scene.camera.origin), dir, active);
+        self.trace_paths(paths, &keys, Some(cull), counts)
+    }
+
+    /// The colour a ray sees, as a camera sees it: `trace_paths` at `f32`.
+    pub fn trace_ray(&self, ray: Ray, keys: &KeyLanes, counts: &mut RayCounts) -> Vec3 {
+        let paths = Paths::<f32>::new(V3::splat(ray.origin), V3::splat(ray.dir), 1);
+        self.trace_paths(paths, keys, None, counts).lane(0)
+    }
+
+    /// Follow the lanes' paths from vertex 0 until each ends or the budget
+    /// (`max_depth` vertices) is spent, and return their colours. `camera`: the rays are
+    /// camera rays whose packet's tile has this cull.
+    pub(crate) fn trace_paths<L: Lane>(
+        &self,
+        mut paths: Paths<L>,
+        keys: &KeyLanes,
+        camera: Option<Cull>,
+        counts: &mut RayCounts,
+    ) -> V3<L> {
+        let mut vertex = 0;
+        while paths.active != 0 && vertex < self.scene.max_depth {
+            let hits = self.closest_hits(&paths, if vertex == 0 { camera } else { None }, counts);
+            self.shade_vertex(&mut paths, &hits, keys, vertex, counts);
+            vertex += 1;
+        }
+        paths.color
+    }
+
+    /// The closest hits of the active lanes' rays: the scalar traversal for one lane,
+    /// the packet traversal for more.
+    #[inline(always)]
+    fn closest_hits<L: Lane>(
+        &self,
+        paths: &Paths<L>,
+        camera: Option<Cull>,
+        counts: &mut RayCounts,
+    ) -> PacketHits<L> {
+        let scene = self.scene;
+        if L::WIDTH == 1 {
+            let ray = Ray::new(paths.origin.lane(0), paths.dir.lane(0));
+            let mut hits = PacketHits::none(paths.active);
+            let hit = self.closest_hit(&ray, counts);
+            hits.set(0, hit.map_or(f32::INFINITY, |h| h.t), hit);
+            return hits;
+        }
+        let mut packet = RayPacket::from_active_lanes(paths.origin, paths.dir, paths.active);
+        if let Some(cull) = camera {
+            packet = packet.with_cull(cull);
+        }
+        // A camera inside the scene's box (bunny's ground sphere holds it) needs no box
+        // test: every ray meets it. Skipping an early-out never changes a result.
+        let inside = camera.is_some() && self.camera_inside;
+        if self.specialize
+            && !inside
+            && packet.hits_box(&scene.bounds, T_MIN, f32::INFINITY) & paths.active == 0
+        {
+            counts.packets_outside += 1;
+            return PacketHits::none(paths.active);
+        }
+        self.accel
+            .closest_hit_packet(scene, &packet, T_MIN, &mut counts.traversal)
+    }
+
+    /// Shade the lanes' hits at path vertex `vertex`: add what the lanes whose path ends
+    /// here see, and set up the next rays of the others.
+    fn shade_vertex<L: Lane>(
+        &self,
+        paths: &mut Paths<L>,
+        hits: &PacketHits<L>,
+        keys: &KeyLanes,
+        vertex: u32,
+        counts: &mut RayCounts,
+    ) {
+        let scene = self.scene;
+        let t = &self.tables;
+        let active = paths.active;
+        let found = hits.found & active;
+        let object = hits.objects();
+        // The lanes by how their hit is shaded, and the Phong material when every Phong
+        // lane has the same one. One lane: a table lookup. Few objects: one lane
+        // compare per object. Else a table lookup per lane.
+        let (by_class, uniform_phong) = if L::WIDTH == 1 {
+            let mut by_class = [0u32; CLASSES];
+            let slot = if found != 0 {
+                object[0] as usize + 1
+            } else {
+                0
+            };
+            by_class[t.class[slot] as usize] = active;
+            (by_class, t.phong_of[slot])
+        } else if t.few {
+            let mut by_class = [0u32; CLASSES];
+            by_class[MISS] = active & !found;
+            let mut phong = NO_PHONG;
+            for o in 0..t.class.len() - 1 {
+                let lanes = hits.of_object(o as u32) & found;
+                if lanes == 0 {
+                    continue;
+                }
+                let class = t.class[o + 1] as usize;
+                by_class[class] |= lanes;
+                if class == PHONG || class == MIRROR {
+                    let p = t.phong_of[o + 1];
+                    phong = if phong == NO_PHONG || phong == p {
+                        p
+                    } else {
+                        MIXED_PHONG
+                    };
+                }
+            }
+            (by_class, phong)
+        } else {
+            let classes = std::array::from_fn(|k| {
+                if k >= L::WIDTH || active >> k & 1 == 0 {
+                    NO_LANE
+                } else if found >> k & 1 == 0 {
+                    MISS as u8
+                } else {
+                    t.class[object[k] as usize + 1]
+                }
+            });
+            (lanes_by_class(classes), MIXED_PHONG)
+        };
+        // Table entries are object + 1.
+        let entry: [u32; MAX_WIDTH] = std::array::from_fn(|k| object[k].wrapping_add(1));
+        let (mut color, mut weight) = (paths.color, paths.weight);
+
+        // Paths that end here without shading: the background, a light's colour, what
+        // a mirror sees of a path-traced material.
+        if by_class[MISS] != 0 {
+            let background = V3::splat(scene.background);
+            color = add_weighted(color, weight, background, by_class[MISS]);
+        }
+        let path_traced = by_class[DIFFUSE] | by_class[METAL] | by_class[DIELECTRIC];
+        let seen = by_class[LIGHT] | (path_traced & paths.mirror);
+        if seen != 0 {
+            color = add_weighted(color, weight, gather3(&t.seen, &entry, seen), seen);
+        }
+        let bounce = path_traced & !paths.mirror;
+        let phong_lanes = by_class[PHONG] | by_class[MIRROR];
+        let shaded = phong_lanes | bounce;
+        if shaded == 0 {
+            paths.color = color;
+            paths.active = 0;
+            return;
+        }
+
+        // The surfaces, lane-wise.
+        let (origin, dir) = (paths.origin, paths.dir);
+        let s = self.surface_lanes::<L>(origin, dir, hits, shaded);
+        let (mut next_origin, mut next_dir, mut next) = (origin, dir, 0u32);
+
+        if phong_lanes != 0 {
+            // The lanes' Phong parameters. A lane that does not shade with Phong takes
+            // the first Phong lane's material (its values are never read), so a packet
+            // on one material is recognised and splatted.
+            let materials = if uniform_phong < MIXED_PHONG {
+                PhongLanes::<L>::splat(&t.phong[uniform_phong as usize])
+            } else {
+                let first = t.phong_of[entry[phong_lanes.trailing_zeros() as usize] as usize];
+                let index: [u32; MAX_WIDTH] = std::array::from_fn(|k| {
+                    if phong_lanes >> k & 1 != 0 {
+                        t.phong_of[entry[k] as usize]
+                    } else {
+                        first
+                    }
+                });
+                PhongLanes::<L>::from_indices(&t.phong, &index)
+            };
+            let local = self.phong_lanes(&materials, &s, -dir, keys, vertex, phong_lanes, counts);
+            color = add_weighted(color, weight, local, by_class[PHONG]);
+            let mirrors = by_class[MIRROR];
+            if mirrors != 0 {
+                // PhongMirror: (1 − F) of the local colour now, F of what the mirror
+                // direction sees next.
+                let f = mirror_fresnel(dir, s.normal, gather(&t.index, &entry, mirrors));
+                let one_minus_f = L::splat(1.0) - f;
+                color = add_weighted(color, weight, local.scale(one_minus_f), mirrors);
+                weight = V3::select(L::Mask::from_bits(mirrors), weight.scale(f), weight);
+                let reflected = mirror_direction(dir, s.normal);
+                let m = L::Mask::from_bits(mirrors);
+                next_dir = V3::select(m, reflected, next_dir);
+                next_origin = V3::select(
+                    m,
+                    spawn_origin(s.point, s.error, s.normal, reflected),
+                    next_origin,
+                );
+                next |= mirrors;
+            }
+        }
+
+        if bounce != 0 {
+            // Diffuse, Metal, Dielectric: a bounce, on as a camera sees it.
+            let m = ScatterLanes {
+                albedo: gather3(&t.seen, &entry, bounce),
+                parameter: gather(&t.index, &entry, bounce),
+                diffuse: by_class[DIFFUSE] & bounce,
+                metal: by_class[METAL] & bounce,
+                dielectric: by_class[DIELECTRIC] & bounce,
+            };
+            let b = scatter_lanes(dir, &s, &m, keys, vertex);
+            let scattered = L::Mask::from_bits(b.scattered);
+            weight = V3::select(
+                scattered,
+                V3::new(
+                    weight.x * b.attenuation.x,
+                    weight.y * b.attenuation.y,
+                    weight.z * b.attenuation.z,
+                ),
+                weight,
+            );
+            next_dir = V3::select(scattered, b.dir, next_dir);
+            next_origin = V3::select(
+                scattered,
+                spawn_origin(s.point, s.error, s.normal, b.dir),
+                next_origin,
+            );
+            next |= b.scattered;
+        }
+
+        counts.secondary += next.count_ones() as u64;
+        if L::WIDTH > 1 && next != 0 {
+            counts.secondary_packets.record(next);
+        }
+        paths.origin = next_origin;
+        paths.dir = next_dir;
+        paths.active = next;
+        paths.mirror |= by_class[MIRROR];
+        paths.weight = weight;
+        paths.color = color;
+    }
+
+    /// Phong at the surfaces of the lanes of `lanes` (the original program's model):
+    /// ambient, plus per light the mean over its samples of the diffuse and specular
+    /// terms of the samples whose shadow ray reaches the light. Each sample's shadow
+    /// rays travel as one packet over the lanes that have a direction to it (not those
+    /// whose sample adds nothing lit or not, when specialising). The specular term is
+    /// not gated by N·L > 0, as in the original.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn phong_lanes<L: Lane>(
+        &self,
+        m: &PhongLanes<L>,
+        s: &SurfaceLanes<L>,
+        view: V3<L>,
+        keys: &KeyLanes,
+        vertex: u32,
+        lanes: u32,
+        counts: &mut RayCounts,
+    ) -> V3<L> {
+        let scene = self.scene;
+        let zero = V3::splat(Vec3::ZERO);
+        let (mut diffuse, mut specular) = (zero, zero);
+        for (li, light) in scene.lights.iter().enumerate() {
+            let n = light.samples();
+            let radiance = V3::<L>::splat(light.radiance);
+            let (mut light_diffuse, mut light_specular) = (zero, zero);
+            for k in 0..n {
+                let target = light_targets(light, li as u32, k, keys, vertex);
+                let (l, ok) = direction_to(target, s.point);
+                let candidates = ok.bits() & lanes;
+                if candidates == 0 {
+                    continue;
+                }
+                let n_dot_l = s.normal.dot(l);
+                let r = normalize_or_zero(s.normal.scale(L::splat(2.0) * n_dot_l) - l);
+                let r_dot_v = r.dot(view);
+                // The specular term, made once and only where it can be other than +0
+                // (`pow_is_zero`): zero lanes need no pow.
+                let base = r_dot_v.max(L::splat(0.0));
+                let surely_zero = pow_is_zero(m.shininess, r_dot_v);
+                let mut spec = None;
+                let mut traced = candidates;
+                if self.specialize {
+                    // A sample adds nothing, lit or not, where N·L ≤ 0 (no diffuse
+                    // term) and the specular term is +0: its shadow ray is not traced.
+                    let unlit = (!n_dot_l.gt(L::splat(0.0))).bits() & candidates;
+                    let mut nothing = unlit & surely_zero;
+                    if unlit & !surely_zero != 0 {
+                        let p = pow(base, m.shininess);
+                        nothing |= unlit & p.eq(L::splat(0.0)).bits();
+                        spec = Some(p);
+                    }
+                    counts.shadow_culled += nothing.count_ones() as u64;
+                    traced &= !nothing;
+                }
+                if traced == 0 {
+                    continue;
+                }
+                let visible = self.light_visible_lanes(s, l, traced, light, counts);
+                if visible == 0 {
+                    continue;
+                }
+                let lit = L::Mask::from_bits(visible);
+                let d = light_diffuse + radiance.scale(n_dot_l.max(L::splat(0.0)));
+                light_diffuse = V3::select(lit, d, light_diffuse);
+                let spec = if visible & !surely_zero == 0 {
+                    L::splat(0.0)
+                } else {
+                    spec.unwrap_or_else(|| pow(base, m.shininess))
+                };
+                light_specular =
+                    V3::select(lit, light_specular + radiance.scale(spec), light_specular);
+            }
+            // x / 1 is x, bit for bit (a point light's one sample): no division then.
+            let mean = |v: V3<L>| {
+                if n == 1 {
+                    return v;
+                }
+                let n = L::splat(n as f32);
+                V3::new(v.x / n, v.y / n, v.z / n)
+            };
+            diffuse = diffuse + mean(light_diffuse);
+            specular = specular + mean(light_specular);
+        }
+        let sum = V3::splat(scene.ambient).scale(m.ka) + diffuse.scale(m.kd) + specular.scale(m.ks);
+        V3::new(m.albedo.x * sum.x, m.albedo.y * sum.y, m.albedo.z * sum.z)
+    }
+
+    /// The lanes of `lanes` whose shadow ray from their surface along `l` reaches
+    /// `light`: the scalar test for one lane, a shadow packet for more.
+    #[inline(always)]
+    fn light_visible_lanes<L: Lane>(
+        &self,
+        s: &SurfaceLanes<L>,
+        l: V3<L>,
+        lanes: u32,
+        light: &Light,
+        counts: &mut RayCounts,
+    ) -> u32 {
+        counts.shadow += lanes.count_ones() as u64;
+        let origin = spawn_origin(s.point, s.error, s.normal, l);
+        if L::WIDTH == 1 {
+            let ray = Ray::new(origin.lane(0), l.lane(0));
+            let visible =
+                self.accel
+                    .light_visible(self.scene, &ray, T_MIN, light, &mut counts.traversal);
+            return visible as u32;
+        }
+        counts.shadow_packets.record(lanes);
+        let p = RayPacket::<L>::from_active_lanes(origin, l, lanes);
+        self.accel
+            .light_visible_packet(self.scene, &p, T_MIN, light, lanes, &mut counts.traversal)
+    }
+}
+
+/// Sample `k` of light `li` at path vertex `vertex` of each lane: a point light's
+/// centre, or a point of an area light from the lane's random numbers.
+#[inline(always)]
+pub(super) fn light_targets<L: Lane>(
+    light: &Light,
+    li: u32,
+    k: u32,
+    keys: &KeyLanes,
+    vertex: u32,
+) -> V3<L> {
+    if let crate::scene::LightShape::Point { center, .. } = light.shape {
+        return V3::splat(center);
+    }
+    let u = |c| keys.uniform::<L>(vertex, slot::light(li, k, c));
+    // The primitive is picked only when there are several (the pick's number has a
+    // slot of its own, so skipping it changes no other number).
+    let pick = if light.primitives() > 1 {
+        u(0)
+    } else {
+        L::splat(0.0)
+    };
+    light.sample_lanes(pick, u(1), u(2))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every assignment of classes (and "no lane") to the first five lanes, with the
+    /// other three cycling: the masks are those of a plain loop.
+    #[test]
+    fn lanes_by_class_is_the_plain_loop() {
+        let values = [
+            MISS,
+            LIGHT,
+            PHONG,
+            MIRROR,
+            DIFFUSE,
+            METAL,
+            DIELECTRIC,
+            NO_LANE as usize,
+        ];
+        let mut n = 0u32;
+        for code in 0..values.len().pow(5) {
+            let mut c = code;
+            let classes: [u8; MAX_WIDTH] = std::array::from_fn(|k| {
+                let v = if k < 5 {
+                    values[c % values.len()]
+                } else {
+                    values[(code + k) % values.len()]
+                };
+                c /= values.len();
+                v as u8
+            });
+            let mut expected = [0u32; CLASSES];
+            for (k, &cl) in classes.iter().enumerate() {
+                if (cl as usize) < CLASSES {
+                    expected[cl as usize] |= 1 << k;
+                }
+            }
+            assert_eq!(lanes_by_class(classes), expected, "{classes:?}");
+            n += 1;
+        }
+        assert_eq!(n, 32768);
+    }
+}
