@@ -13,8 +13,10 @@
 
 use super::triangle::{edge_functions, edge_functions_f64, inside_edges, shear, WatertightRay};
 use super::{Aabb, Ray};
-use crate::lanes::{Lane, V3};
+use crate::lanes::{set_lanes, Lane, Mask, V3};
 use glam::Vec3;
+use std::ops::Range;
+use wide::f32x8;
 
 /// The seed's parallel-ray threshold on `|n · d|`.
 pub const PARALLEL_EPSILON: f32 = 1e-8;
@@ -224,6 +226,98 @@ impl QuadPool {
         let v = V3::splat;
         let (t, hit) = plane_distance(n, d, v(ray.origin), v(ray.dir), t_min, t_max);
         hit.then_some(t)
+    }
+}
+
+/// Eight quads of a pool, structure-of-arrays in `f32x8` lanes, for one ray to test
+/// them at once (the quads kept beside the BVH): the vertices, `vertices[k][axis]`, and
+/// the planes. A group past the pool's end is padded with copies of its last quad,
+/// masked off by `count`.
+#[derive(Clone, Copy, Debug)]
+pub struct QuadLanes {
+    vertices: [[f32x8; 3]; 4],
+    normal: V3<f32x8>,
+    plane_d: f32x8,
+    /// The pool index of lane 0 (the others follow) and the lanes that hold a quad.
+    first: usize,
+    count: usize,
+}
+
+impl QuadLanes {
+    /// The quads `range` of `pool`, eight a group.
+    pub fn pack(pool: &QuadPool, range: Range<usize>) -> Vec<QuadLanes> {
+        range
+            .clone()
+            .step_by(8)
+            .map(|first| {
+                let count = (range.end - first).min(8);
+                let i = |k: usize| first + k.min(count - 1);
+                let lanes = |f: &dyn Fn(usize) -> f32| f32x8::new(std::array::from_fn(|k| f(i(k))));
+                QuadLanes {
+                    vertices: std::array::from_fn(|m| {
+                        std::array::from_fn(|a| lanes(&|j| pool.vertices[j][m][a]))
+                    }),
+                    normal: V3::new(
+                        lanes(&|j| pool.plane[j][0]),
+                        lanes(&|j| pool.plane[j][1]),
+                        lanes(&|j| pool.plane[j][2]),
+                    ),
+                    plane_d: lanes(&|j| pool.plane[j][3]),
+                    first,
+                    count,
+                }
+            })
+            .collect()
+    }
+
+    /// The pool indices of the group's quads.
+    #[inline(always)]
+    pub fn indices(&self) -> Range<usize> {
+        self.first..self.first + self.count
+    }
+
+    /// Whether the group holds one quad only: then the scalar test is cheaper.
+    #[inline(always)]
+    pub fn is_single(&self) -> bool {
+        self.count == 1
+    }
+
+    /// `QuadPool::intersect` of the group's quads with one ray: each lane's distance
+    /// and the mask of the quads hit in `[t_min, t_max]`, the bits of the scalar test's
+    /// (its steps on lanes of quads; a lane whose outer edge function rounds to zero
+    /// is redone by the scalar edge test, as the packets' are).
+    #[inline(always)]
+    pub fn intersect(
+        &self,
+        pool: &QuadPool,
+        ray: &Ray,
+        w: &WatertightRay,
+        t_min: f32,
+        t_max: f32,
+    ) -> ([f32; 8], u32) {
+        let [kx, ky, kz] = w.axes;
+        let s = f32x8::splat;
+        let o = w.origin.map(s);
+        let (sx, sy) = (s(w.sx), s(w.sy));
+        let v = &self.vertices;
+        let vertex = |m: usize| shear([v[m][kx], v[m][ky], v[m][kz]], o, sx, sy);
+        let e = quad_edge_functions(vertex(0), vertex(1), vertex(2), vertex(3));
+        let valid = (1u32 << self.count) - 1;
+        let mut inside = inside_quad(e).bits();
+        let redo = outer_edge_is_zero(e).bits() & valid;
+        for k in set_lanes(redo) {
+            let through = passes_through(w, &pool.vertices[self.first + k]);
+            inside = (inside & !(1 << k)) | ((through as u32) << k);
+        }
+        let (t, hit) = plane_distance(
+            self.normal,
+            self.plane_d,
+            V3::splat(ray.origin),
+            V3::splat(ray.dir),
+            s(t_min),
+            s(t_max),
+        );
+        (t.to_array(), inside & hit.bits() & valid)
     }
 }
 

@@ -291,10 +291,8 @@ impl Tracer<'_> {
             hits.set(0, hit.map_or(f32::INFINITY, |h| h.t), hit);
             return hits;
         }
-        let mut packet = RayPacket::from_active_lanes(paths.origin, paths.dir, paths.active);
-        if let Some(cull) = camera {
-            packet = packet.with_cull(cull);
-        }
+        let packet = RayPacket::from_active_lanes(paths.origin, paths.dir, paths.active)
+            .with_cull(camera.unwrap_or(Cull::ALL));
         // A camera inside the scene's box (bunny's ground sphere holds it) needs no box
         // test: every ray meets it. Skipping an early-out never changes a result.
         let inside = camera.is_some() && self.camera_inside;
