@@ -483,7 +483,7 @@ impl Tracer<'_> {
     /// whose sample adds nothing lit or not, when specialising). The specular term is
     /// not gated by N·L > 0, as in the original.
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn phong_lanes<L: Lane>(
+    pub fn phong_lanes<L: Lane>(
         &self,
         m: &PhongLanes<L>,
         s: &SurfaceLanes<L>,
