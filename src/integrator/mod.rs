@@ -20,6 +20,7 @@ use crate::geometry::spawn::{
     planar_point_lanes, spawn_ray, sphere_point, sphere_point_lanes, ErrorPoint,
 };
 use crate::geometry::sphere::{sphere_normal, SpherePool};
+use crate::geometry::QuadPool;
 use crate::geometry::{Hit, PrimKind, Ray};
 use crate::lanes::{all_equal, Lane, Mask, V3};
 use crate::material::{reflect_lanes, schlick_lanes, Phong};
@@ -314,26 +315,13 @@ impl<'a> Tracer<'a> {
         if quads != 0 {
             let i = own_or_first(&index, quads);
             let pool = &scene.quads;
-            let column = |x: &[f32], y: &[f32], z: &[f32]| -> V3<L> {
-                if all_equal(&i, L::WIDTH) {
-                    let j = i[0];
-                    V3::splat(Vec3::new(x[j], y[j], z[j]))
-                } else {
-                    V3::new(
-                        L::from_fn(|k| x[i[k]]),
-                        L::from_fn(|k| y[i[k]]),
-                        L::from_fn(|k| z[i[k]]),
-                    )
-                }
+            let (q, u, v, w, n) = if all_equal(&i, L::WIDTH) {
+                let (q, s) = (pool.get(i[0]), V3::splat);
+                (s(q.corner), s(q.u), s(q.v), s(q.w), s(q.normal))
+            } else {
+                gather_quads(pool, &i)
             };
-            let (p, e) = planar_point_lanes(
-                column(&pool.qx, &pool.qy, &pool.qz),
-                column(&pool.ux, &pool.uy, &pool.uz),
-                column(&pool.vx, &pool.vy, &pool.vz),
-                column(&pool.wx, &pool.wy, &pool.wz),
-                on_ray,
-            );
-            let n = V3::from_fn(|k| pool.normal(i[k]));
+            let (p, e) = planar_point_lanes(q, u, v, w, on_ray);
             let m = L::Mask::from_bits(quads);
             point = V3::select(m, p, point);
             error = V3::select(m, e, error);
@@ -509,6 +497,24 @@ fn gather_spheres<L: Lane>(pool: &SpherePool, i: &[usize; MAX_WIDTH]) -> (V3<L>,
         L::from_fn(|k| pool.cz[i[k]]),
     );
     (c, L::from_fn(|k| pool.radius[i[k]]))
+}
+
+/// A quad's corner, edges u and v, plane vector w and normal, in lanes.
+type QuadVectors<L> = (V3<L>, V3<L>, V3<L>, V3<L>, V3<L>);
+
+/// The corners, edges u and v, plane vectors w and normals of quads `i[k]`, lane by lane
+/// (out of line and cold, as `gather_spheres`).
+#[cold]
+#[inline(never)]
+fn gather_quads<L: Lane>(pool: &QuadPool, i: &[usize; MAX_WIDTH]) -> QuadVectors<L> {
+    let quad = |k: usize| pool.get(i[k]);
+    (
+        V3::from_fn(|k| quad(k).corner),
+        V3::from_fn(|k| quad(k).u),
+        V3::from_fn(|k| quad(k).v),
+        V3::from_fn(|k| quad(k).w),
+        V3::from_fn(|k| quad(k).normal),
+    )
 }
 
 /// `index[k]` for the lanes `k` of `lanes` (not empty), the first of those lanes' index
