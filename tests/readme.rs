@@ -4,7 +4,8 @@
 //! test, in an empty directory. Each must exit 0 and leave the files it names (`-o`,
 //! `--report`, or the default `<scene>.png`). `cargo build` and `cargo test` lines are
 //! the build itself and are not run again; `my-scene.toml` stands for the reader's own
-//! scene file, for which the test writes a copy of `scenes/spheres.toml`.
+//! scene file, for which the test writes a copy of `scenes/spheres.toml`. The opening
+//! block's `cargo test` is the command `.ci/run` runs.
 
 use std::path::Path;
 use std::process::Command;
@@ -109,4 +110,22 @@ fn the_readme_usage_commands_run_as_written() {
             assert!(len > 0, "{command}: {file} was not written");
         }
     }
+}
+
+/// The README's test command is the one CI runs: its opening block's `cargo test` line
+/// appears, as written, as a line of `.ci/run`.
+#[test]
+fn ci_runs_the_readme_test_command() {
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md"))
+        .expect("README.md");
+    let ci =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/.ci/run")).expect(".ci/run");
+    let test = sh_commands(&readme, 1)
+        .into_iter()
+        .find(|c| c.starts_with("cargo test"))
+        .expect("the README's opening block has a `cargo test` command");
+    assert!(
+        ci.lines().any(|l| l.trim() == test),
+        ".ci/run does not run the README's test command `{test}`"
+    );
 }
