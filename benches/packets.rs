@@ -6,9 +6,9 @@
 //! The packets are handed over with their rays already in lanes (`common::in_lanes`),
 //! as the renderer makes them and as `rtcIntersect8` takes them; the timed loop makes
 //! each `RayPacket` (`from_lanes`: reciprocals, signs, sphere constants) and traces it.
-//! (Until 2026-12-01 it also transposed an array of eight rays per packet,
-//! `RayPacket::new`, which the renderer never runs: ~10% of a `bunny` camera packet's
-//! instructions.)
+//! It does not time a transpose of eight `Ray`s into lanes (`RayPacket::new`), which the
+//! renderer never runs and which would be ~10% of a `bunny` camera packet's
+//! instructions.
 //!
 //! `cargo bench --bench packets`; throughput is in rays (elements) per second. Before
 //! timing, every width's answers are checked against the scalar ones (same t, same

@@ -1,4 +1,4 @@
-//! The pinhole camera of the seed (`seed-scenes.md` §2).
+//! The pinhole camera of the seed (`docs/seed-semantics.md`, "Camera").
 //!
 //! Scene keys (`[camera]`): `width`, `aspect_ratio`, `samples_per_pixel`, `max_depth`,
 //! `vfov`, `look_from`, `look_at`, `up`. The set-up is computed in f64, as the seed did,

@@ -1,5 +1,5 @@
 //! Lanes: the small vector trait every geometric kernel is written over, so the scalar
-//! reference and the packet tracers run the same operations (`design.md` §2).
+//! reference and the packet tracers run the same operations (ARCHITECTURE.md, "Lanes").
 //!
 //! Implemented for `f32` (one ray, the reference), `glam::Vec4` with `BVec4A` masks
 //! (4 wide) and `wide::f32x8` (8 wide; without AVX, `wide` runs it as two 4-wide halves).

@@ -1,4 +1,4 @@
-//! Materials and their scattering rules (`seed-scenes.md` §4).
+//! Materials and their scattering rules (`docs/seed-semantics.md`).
 //!
 //! Scene keys (`[materials.NAME]`, `type = ...`): `phong` (albedo, shininess, ka, kd, ks),
 //! `phong_mirror` (albedo, shininess, index, ka, kd, ks), `diffuse` (albedo), `metal`
@@ -109,7 +109,8 @@ mod tests {
 
     #[test]
     fn schlick_r0_matches_the_seed_table() {
-        // seed-scenes.md §4: n = 0.02 → 0.9231, 0.1 → 0.6694, 0.2 → 0.4444.
+        // docs/seed-semantics.md, "PhongMirror": n = 0.02, 0.1, 0.2 give r₀ = 0.9231,
+        // 0.6694, 0.4444.
         for (n, r0) in [(0.02, 0.9231), (0.1, 0.6694), (0.2, 0.4444)] {
             assert!((schlick(1.0, n) - r0).abs() < 5e-5, "{n}");
         }

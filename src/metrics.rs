@@ -1,4 +1,5 @@
-//! Error of a render against a reference, on linear values (`design.md` §8).
+//! Error of a render against a reference, on linear values (`docs/performance.md`,
+//! "Error against time").
 //!
 //! Every metric averages over all pixels and the three channels, in f64.
 //! - **MSE / RMSE**: mean of (a − b)², and its square root.

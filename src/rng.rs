@@ -3,8 +3,8 @@
 //!
 //! Nothing is drawn "from a stream", so the image cannot depend on the thread count, the
 //! tile order or the packet width, and the scalar and packet tracers consume exactly the
-//! same numbers (`design.md` §4). The hash is Wellons' `lowbias32`: fixed shifts and
-//! multiplies only, so the packet tracers can evaluate it lane-wise.
+//! same numbers (ARCHITECTURE.md, "Determinism"). The hash is Wellons' `lowbias32`:
+//! fixed shifts and multiplies only, so the packet tracers can evaluate it lane-wise.
 //!
 //! A [`Sampler`] (`--sampler`) decides how the numbers are spread: independent (the
 //! seed's), stratified (correlated multi-jittered) or Owen-scrambled Sobol. The tracer

@@ -423,10 +423,10 @@ fn filler_quads(centre: Vec3, far: f32) -> String {
 /// rays is run for the record and its leak count printed (α rounds below 0 on one face
 /// and β above 1 on the other).
 ///
-/// Checked it can fail: run on the library before the watertight quad test (main at
-/// a15734d, the seed's planar test), it fails with 228 leaks on each closest-hit path
-/// (BVH, linear, packets 8 and 4 wide) and 158 rays not occluded on each any-hit path, of
-/// 56 064 rays (and 6 answers differing between paths).
+/// Checked it can fail: run with the seed's planar quad test in place of the watertight
+/// one, it fails with 228 leaks on each closest-hit path (BVH, linear, packets 8 and 4
+/// wide) and 158 rays not occluded on each any-hit path, of 56 064 rays (and 6 answers
+/// differing between paths).
 #[test]
 fn boxes_are_watertight_at_edges_and_corners() {
     let boxes = [
@@ -518,9 +518,8 @@ fn boxes_are_watertight_at_edges_and_corners() {
 /// the target, through every path (see `quad_rays`). The seed's planar test's leaks are
 /// printed for the record.
 ///
-/// Checked it can fail: run on the library before the watertight quad test (main at
-/// a15734d, the seed's planar test), it fails with 7 372 leaks of 36 864 rays on every
-/// path.
+/// Checked it can fail: run with the seed's planar quad test in place of the watertight
+/// one, it fails with 7 372 leaks of 36 864 rays on every path.
 #[test]
 fn quads_sharing_an_edge_are_watertight() {
     let mut rng = Rng(0xed6e);

@@ -2,7 +2,7 @@
 //! geometry and the benchmarks' ray sets to a binary file, for
 //! `benches/embree/embree_bench.c` to trace with Embree, and times our own tracing of the
 //! same sets the same way (one thread, an untimed pass, then `passes` timed ones and their
-//! median), so the two can run alternately in one session on this shared machine.
+//! median), so the two can run alternately, in the same minutes of a shared machine.
 //!
 //! ```sh
 //! cargo run --release --example vs_embree -- bunny /tmp/bunny.rays 5

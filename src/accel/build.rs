@@ -10,13 +10,13 @@
 //!   thread count. The parallel bounds and binning passes of large nodes combine their
 //!   chunks with min, max and integer sums, which are exact in any order.
 //!
-//! Speed. The first version made a bounds pass, a kind pass and one binning pass per
-//! axis at every node, partitioned with a branch per reference and boxed every node.
-//! `cargo bench --bench bvh -- build` (criterion medians, three alternating runs on the
-//! shared 2-core machine): bunny (4 968 triangles, one thread) 6.1 / 7.0 / 7.4 ms before,
-//! 1.5 / 1.6 / 1.9 ms now; bunny subdivided to 1 271 808 triangles (two threads)
-//! 0.91 / 0.97 / 1.15 s before, 0.29 / 0.31 / 0.32 s now. The tree is the same (same
-//! splits, same node boxes; `splits_are_the_first_versions` below). In order of gain:
+//! Speed. `cargo bench --bench bvh -- build` (criterion medians, three alternating runs on
+//! a shared 2-core machine): the bunny (4 968 triangles, one thread) builds in 1.5–1.9 ms
+//! and the bunny subdivided to 1 271 808 triangles (two threads) in 0.29–0.32 s, where a
+//! plain build (a bounds pass, a kind pass and one binning pass per axis at every node, a
+//! branch per reference in the partition, a box per node) takes 6.1–7.4 ms and
+//! 0.91–1.15 s for the same tree (same splits, same node boxes; `splits_are_the_plain_builds`
+//! below). In order of gain:
 //!
 //! - A node reads its references twice: one pass bins them on all three axes at once,
 //!   one partitions them and collects both sides' centroid bounds. The sides' bounds
@@ -705,8 +705,8 @@ mod tests {
             .collect()
     }
 
-    /// What the first version of this file decided for a node, from plain `Aabb`s: a leaf
-    /// (`None`), or which references go left.
+    /// What the plain build decides for a node, from plain `Aabb`s: a leaf (`None`), or
+    /// which references go left.
     fn reference_decision(refs: &[PrimRef], depth: u32) -> Option<Vec<bool>> {
         let n = refs.len();
         let (mut bounds, mut centroids) = (Aabb::EMPTY, Aabb::EMPTY);
@@ -822,7 +822,7 @@ mod tests {
     }
 
     #[test]
-    fn splits_are_the_first_versions() {
+    fn splits_are_the_plain_builds() {
         for (n, mixed, seed) in [(3000, 0, 1), (2000, 600, 2), (40, 40, 3)] {
             let mut refs = random_refs(n, mixed, seed);
             let tree = build(&mut refs).unwrap();

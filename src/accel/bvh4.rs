@@ -1,9 +1,12 @@
-//! The 4-wide BVH: node layout, collapse from the binary build, and scalar traversal
-//! (closest hit, and the any-hit occlusion test of shadow rays).
+//! The BVH: node layout (`Node<W>`), the collapse of the binary build to 4-wide nodes and
+//! to 8-wide ones (`node8`), and the scalar traversals: closest hit over the 8-wide
+//! nodes, the any-hit occlusion test of shadow rays and the lanes a packet finishes alone
+//! over the 4-wide ones, which packets traverse too (`packet`).
 //!
-//! A node holds the boxes of its four children structure-of-arrays (`min_x[4]`, …), so
-//! one ray tests all four with one `Vec4` pass. Leaves hold up to four primitives of one
-//! kind, contiguous in that kind's pool (the pools are reordered after the build).
+//! A node holds the boxes of its children structure-of-arrays (`min_x[W]`, …), so one
+//! ray tests them all in one pass. Leaves hold up to four primitives of one kind,
+//! contiguous in that kind's pool (the pools are reordered after the build), and both
+//! widths share them.
 
 use super::build::{self, BuildTree, NodeId, PrimRef};
 use super::linear::{self, PrimRay};

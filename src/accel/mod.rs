@@ -2,7 +2,8 @@
 //!
 //! - `linear`: the seed's algorithm: every sphere and quad, every triangle of a mesh
 //!   whose bounding box is hit. Kept so the BVH's gain is measurable in one run.
-//! - `bvh4`: a binned-SAH BVH (`build`) collapsed to 4-wide nodes; the default.
+//! - `bvh4`: a binned-SAH BVH (`build`) collapsed to 4-wide nodes (packets, shadow rays)
+//!   and 8-wide nodes (single rays' closest hits); the default.
 //!
 //! Both answer the same two questions with the same bits: the closest hit by the
 //! `(t, primitive id)` rule, and whether a shadow ray reaches a given light.
@@ -27,8 +28,8 @@ pub enum AccelKind {
     /// algorithm): to measure what the BVH gains.
     Linear,
     /// A bounding volume hierarchy built by binned SAH (the default): 4-wide nodes for
-    /// packets, the same tree 8-wide for single rays; small pools of spheres and quads are
-    /// tested in a loop beside it.
+    /// packets and shadow rays, the same tree 8-wide for single rays' closest hits; small
+    /// pools of spheres and quads are tested in a loop beside it.
     #[default]
     Bvh,
 }

@@ -1,12 +1,13 @@
-//! Packet traversal of the 4-wide BVH: 4 or 8 rays, one per lane, tested against each
-//! child box and each leaf primitive in one pass of the lane kernels (`lanes`), with an
-//! active mask for divergence (`design.md` §3).
+//! Packet traversal of the BVH's 4-wide nodes (a camera packet's frustum descends the
+//! 8-wide ones): 4 or 8 rays, one per lane, tested against each child box and each leaf
+//! primitive in one pass of the lane kernels (`lanes`), with an active mask for
+//! divergence (ARCHITECTURE.md, "Packets").
 //!
 //! Every lane gets exactly the scalar answer: the primitive kernels are the scalar ones
 //! run over lanes (same operations, same bits), the box tests are conservative for each
 //! lane (the same margins as the scalar test), and the closest hit is the smallest
 //! `(t, id)` whatever the visiting order. A subtree entered by few lanes
-//! (`Packet::fallback`) is finished one ray at a time by the scalar traversal.
+//! (`RayPacket::fallback`) is finished one ray at a time by the scalar traversal.
 
 use super::bvh4::{
     decode_leaf, plane_rows, slab, BoxRay, Bvh4, Node4, Node8, Wide, EMPTY, FAR_SCALE, LEAF,

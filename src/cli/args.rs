@@ -60,7 +60,7 @@ pub struct Args {
 
     /// How pixel jitter, light samples and bounces are spread: Owen-scrambled Sobol (the
     /// lowest error at equal time), stratified (correlated multi-jittered) or independent
-    /// random numbers (the original program's; with --packet-width 1, its sampling).
+    /// random numbers (the original program's sampling, at any packet width).
     #[arg(long, value_enum, default_value_t = Sampler::Sobol)]
     pub sampler: Sampler,
 
@@ -195,7 +195,8 @@ impl From<Sampler> for SamplerKind {
 pub enum Accel {
     /// Brute force, with the mesh bounding-box pre-test (the seed's algorithm).
     Linear,
-    /// 4-wide bounding volume hierarchy (binned SAH).
+    /// Bounding volume hierarchy (binned SAH): 4-wide nodes for packets and shadow rays,
+    /// 8-wide for single rays' closest hits.
     Bvh,
 }
 

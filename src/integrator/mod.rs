@@ -161,10 +161,10 @@ pub struct Tracer<'a> {
     pub accel: &'a Accel,
     /// Where every random number comes from (`--sampler`, `--seed`).
     pub sampler: Sampler,
-    /// Skip work that cannot change the image (`design.md` §6; `--no-specialize` turns
-    /// it off): shadow rays of light samples that add nothing lit or not, and packets
-    /// that miss the scene's bounds, camera packets' tests their tile's cone rules out
-    /// (`camera_cull`). The image is the same bits either way.
+    /// Skip work that cannot change the image (ARCHITECTURE.md, "Specialisation";
+    /// `--no-specialize` turns it off): shadow rays of light samples that add nothing lit
+    /// or not, and packets that miss the scene's bounds, camera packets' tests their
+    /// tile's cone rules out (`camera_cull`). The image is the same bits either way.
     pub specialize: bool,
     /// The per-object tables shading sorts lanes by (`shade::ShadeTables`).
     pub(crate) tables: shade::ShadeTables,

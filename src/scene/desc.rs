@@ -71,7 +71,8 @@ impl Default for CameraDesc {
     }
 }
 
-/// The seed's camera defaults (`seed-scenes.md` §2) and Phong's ka = kd = ks = 0.5.
+/// The seed's camera defaults and Phong's ka = kd = ks = 0.5 (`docs/seed-semantics.md`,
+/// "Camera").
 mod defaults {
     use super::AspectDesc;
     pub fn width() -> i64 {

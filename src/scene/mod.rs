@@ -167,7 +167,8 @@ pub struct Overrides {
     pub max_depth: Option<u32>,
 }
 
-/// What a scene contains; the integrator skips what is absent (`design.md` §6).
+/// What a scene contains; the integrator skips what is absent (ARCHITECTURE.md,
+/// "Specialisation").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Features {
     pub has_spheres: bool,
