@@ -37,7 +37,7 @@ pub fn to_unit(bits: u32) -> f32 {
 /// tile order or packet width, and a packet tracer can evaluate it per lane.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum SamplerKind {
-    /// Independent hashed numbers: the seed's plain random jitter.
+    /// Independent hashed numbers: the original program's plain random sampling.
     Independent,
     /// Correlated multi-jittered sampling (Kensler 2013): per pixel and per pair of
     /// dimensions, the N = spp × (draws per sample) points are jittered in an m × n grid

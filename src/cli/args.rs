@@ -168,7 +168,7 @@ pub struct SweepArgs {
 /// `--sampler`: the library's `SamplerKind` as the command line spells it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Sampler {
-    /// Independent hashed numbers (the seed's plain random jitter).
+    /// Independent hashed numbers (the original program's plain random sampling).
     Independent,
     /// Correlated multi-jittered sampling (Kensler 2013).
     Stratified,
@@ -193,7 +193,7 @@ impl From<Sampler> for SamplerKind {
 /// `--accel`: the library's `AccelKind` as the command line spells it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Accel {
-    /// Brute force, with the mesh bounding-box pre-test (the seed's algorithm).
+    /// Brute force, with the mesh bounding-box pre-test (the original program's algorithm).
     Linear,
     /// Bounding volume hierarchy (binned SAH): 4-wide nodes for packets and shadow rays,
     /// 8-wide for single rays' closest hits.
