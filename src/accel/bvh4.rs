@@ -6,15 +6,14 @@
 //! kind, contiguous in that kind's pool (the pools are reordered after the build).
 
 use super::build::{self, BuildTree, NodeId, PrimRef};
-use super::linear::{self, PrimRay};
 use super::TraversalStats;
 use crate::geometry::quad::QuadLanes;
 use crate::geometry::spawn::gamma;
-use crate::geometry::sphere::{sphere_distance, SpherePool, SphereRay};
+use crate::geometry::sphere::{sphere_distance, sphere_intersect_with, SpherePool, SphereRay};
 use crate::geometry::triangle::{Columns, WatertightRay};
 use crate::geometry::{beats, Aabb, Hit, PrimKind, Ray};
 use crate::lanes::{set_lanes, Lane, V3};
-use crate::scene::Scene;
+use crate::scene::{Light, LightShape, Scene};
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
@@ -372,9 +371,10 @@ impl BoxRay {
 /// same IEEE quotients, so the same bits), with the triangle test's computed at the first
 /// triangle leaf: most camera rays of `bunny` miss the mesh's box, and the axis choice,
 /// its two divisions and the pool pointers they select cost ~100 instructions a ray
-/// (callgrind). 1/dx, 1/dy, 1/dz and 1/(d·d) are one vector divide.
+/// (callgrind). 1/dx, 1/dy, 1/dz and 1/(d·d) are one vector divide. Shadow rays
+/// (`Bvh4::light_visible`) share them between the light's own hit and the occluders.
 #[derive(Clone, Copy, Debug)]
-struct RayConsts<'r> {
+pub(crate) struct RayConsts<'r> {
     /// Borrowed, not copied: a copy was stored in pieces and read back whole, a failed
     /// store-to-load forward on every ray (perf: 11% of the `bunny` camera-ray time).
     ray: &'r Ray,
@@ -383,8 +383,24 @@ struct RayConsts<'r> {
 }
 
 impl<'r> RayConsts<'r> {
+    /// The constants, and the box test's for the 8-wide tree.
     #[inline(always)]
     fn new(ray: &'r Ray) -> (RayConsts<'r>, BoxRay8) {
+        let (consts, q) = Self::with_reciprocals(ray);
+        (consts, BoxRay8::from_inv(ray, q))
+    }
+
+    /// The constants, and the box test's for the 4-wide tree (which shadow rays and the
+    /// lanes a packet finishes alone traverse).
+    #[inline(always)]
+    pub(crate) fn with_box4(ray: &'r Ray) -> (RayConsts<'r>, BoxRay) {
+        let (consts, q) = Self::with_reciprocals(ray);
+        (consts, BoxRay::from_inv(ray, q.truncate()))
+    }
+
+    /// The constants and (1/dx, 1/dy, 1/dz, 1/(d·d)).
+    #[inline(always)]
+    fn with_reciprocals(ray: &'r Ray) -> (RayConsts<'r>, Vec4) {
         let d = ray.dir;
         let a = d.dot(d);
         let q = Vec4::ONE / Vec4::new(d.x, d.y, d.z, a);
@@ -399,16 +415,7 @@ impl<'r> RayConsts<'r> {
             sphere,
             triangle: None,
         };
-        (consts, BoxRay8::from_inv(ray, q))
-    }
-
-    #[inline(always)]
-    fn from_prim(pray: &'r PrimRay) -> RayConsts<'r> {
-        RayConsts {
-            ray: &pray.ray,
-            sphere: pray.sphere,
-            triangle: Some(pray.triangle),
-        }
+        (consts, q)
     }
 
     #[inline(always)]
@@ -554,10 +561,10 @@ impl Closest {
                 }
             }
             PrimKind::Quad => {
-                let q = &scene.quads;
-                let (ray, tri) = (consts.ray, *consts.triangle());
+                let (q, ray) = (&scene.quads, consts.ray);
                 for i in range {
-                    if let Some(t) = q.intersect(i, ray, &tri, t_min, self.t_max) {
+                    let w = || *consts.triangle();
+                    if let Some(t) = q.intersect_lazy(i, ray, w, t_min, self.t_max) {
                         self.offer(t, q.id[i], kind, i);
                     }
                 }
@@ -817,17 +824,17 @@ impl Bvh4 {
     ) {
         if !self.linear[1].is_empty() {
             stats.prims += self.linear[1].len() as u64;
-            let q = &scene.quads;
-            let (ray, w) = (consts.ray, *consts.triangle());
+            let (q, ray) = (&scene.quads, consts.ray);
             for group in &self.linear_quads {
+                let w = || *consts.triangle();
                 if group.is_single() {
                     let i = group.indices().start;
-                    if let Some(t) = q.intersect(i, ray, &w, t_min, c.t_max) {
+                    if let Some(t) = q.intersect_lazy(i, ray, w, t_min, c.t_max) {
                         c.offer(t, q.id[i], PrimKind::Quad, i);
                     }
                     continue;
                 }
-                let (t, mask) = group.intersect(q, ray, &w, t_min, c.t_max);
+                let (t, mask) = group.intersect(q, ray, w, t_min, c.t_max);
                 c.offer_lanes(&t, mask, group.indices().start, &q.id, PrimKind::Quad);
             }
         }
@@ -842,11 +849,11 @@ impl Bvh4 {
     /// shrinking `t_max`. The packet traversal finishes lanes with it.
     #[allow(clippy::too_many_arguments)]
     #[inline]
-    pub fn closest_hit_from(
+    pub(crate) fn closest_hit_from(
         &self,
         scene: &Scene,
         root: u32,
-        pray: &PrimRay,
+        consts: &mut RayConsts<'_>,
         bray: &BoxRay,
         t_min: f32,
         t_max: &mut f32,
@@ -854,17 +861,7 @@ impl Bvh4 {
         stats: &mut TraversalStats,
     ) {
         let mut c = Closest::new(*t_max, best);
-        let mut consts = RayConsts::from_prim(pray);
-        traverse(
-            &self.nodes,
-            scene,
-            root,
-            &mut consts,
-            bray,
-            t_min,
-            &mut c,
-            stats,
-        );
+        traverse(&self.nodes, scene, root, consts, bray, t_min, &mut c, stats);
         *t_max = c.t_max;
         if let Some(h) = c.hit(scene) {
             *best = Some(h);
@@ -884,29 +881,75 @@ impl Bvh4 {
         object: u32,
         stats: &mut TraversalStats,
     ) -> bool {
-        let pray = PrimRay::new(ray);
-        self.occluded_prim(scene, &pray, t_min, t_light, id_light, object, stats)
+        let (mut consts, bray) = RayConsts::with_box4(ray);
+        self.occluded_consts(
+            scene,
+            &mut consts,
+            &bray,
+            t_min,
+            t_light,
+            id_light,
+            object,
+            stats,
+        )
     }
 
-    /// `occluded` with the ray's per-primitive constants already made.
-    #[allow(clippy::too_many_arguments)]
-    pub fn occluded_prim(
+    /// The seed's shadow test (`Accel::light_visible`): the light's own nearest hit,
+    /// then any occluder before it. The ray's constants are made once for both; the
+    /// watertight ones only for a quad or triangle that needs them (a point light, the
+    /// spheres and a quad whose plane the ray does not meet before the light need none:
+    /// `mixed` and `spheres` shadow rays test no triangle or quad edges at all).
+    pub fn light_visible(
         &self,
         scene: &Scene,
-        pray: &PrimRay,
+        ray: &Ray,
+        t_min: f32,
+        light: &Light,
+        stats: &mut TraversalStats,
+    ) -> bool {
+        let (mut consts, bray) = RayConsts::with_box4(ray);
+        let own = match light.shape {
+            LightShape::Point { center, radius } => {
+                sphere_intersect_with(center, radius, &consts.sphere, t_min, f32::INFINITY)
+                    .map(|t| (t, light.first_id))
+            }
+            _ => light.nearest_hit_watertight(ray, consts.triangle(), t_min),
+        };
+        let Some((t_light, id_light)) = own else {
+            return false;
+        };
+        !self.occluded_consts(
+            scene,
+            &mut consts,
+            &bray,
+            t_min,
+            t_light,
+            id_light,
+            light.object,
+            stats,
+        )
+    }
+
+    /// `occluded` with the ray's constants made.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn occluded_consts(
+        &self,
+        scene: &Scene,
+        consts: &mut RayConsts<'_>,
+        bray: &BoxRay,
         t_min: f32,
         t_light: f32,
         id_light: u32,
         object: u32,
         stats: &mut TraversalStats,
     ) -> bool {
-        if self.occluded_beside(scene, pray, t_min, t_light, id_light, object, stats) {
+        if self.occluded_beside(scene, consts, t_min, t_light, id_light, object, stats) {
             return true;
         }
         let Some(root) = self.root else { return false };
-        let bray = BoxRay::new(&pray.ray);
         self.occluded_from(
-            scene, root, pray, &bray, t_min, t_light, id_light, object, stats,
+            scene, root, consts, bray, t_min, t_light, id_light, object, stats,
         )
     }
 
@@ -917,7 +960,7 @@ impl Bvh4 {
     fn occluded_beside(
         &self,
         scene: &Scene,
-        pray: &PrimRay,
+        consts: &mut RayConsts<'_>,
         t_min: f32,
         t_light: f32,
         id_light: u32,
@@ -930,7 +973,7 @@ impl Bvh4 {
         let spheres = &self.linear[0];
         if !spheres.is_empty() {
             stats.prims += spheres.len() as u64;
-            let (s, r) = (&scene.spheres, &pray.sphere);
+            let (s, r) = (&scene.spheres, &consts.sphere);
             for (g, lanes) in self.linear_spheres.iter().enumerate() {
                 let (t, hit) = sphere_distance(
                     lanes.center,
@@ -952,17 +995,18 @@ impl Bvh4 {
         }
         if !self.linear[1].is_empty() {
             stats.prims += self.linear[1].len() as u64;
-            let q = &scene.quads;
+            let (q, ray) = (&scene.quads, consts.ray);
             for group in &self.linear_quads {
                 let first = group.indices().start;
+                let w = || *consts.triangle();
                 if group.is_single() {
-                    let hit = q.intersect(first, &pray.ray, &pray.triangle, t_min, t_light);
+                    let hit = q.intersect_lazy(first, ray, w, t_min, t_light);
                     if hit.is_some_and(|t| occludes(t, q.id[first], q.object[first])) {
                         return true;
                     }
                     continue;
                 }
-                let (t, mask) = group.intersect(q, &pray.ray, &pray.triangle, t_min, t_light);
+                let (t, mask) = group.intersect(q, ray, w, t_min, t_light);
                 if set_lanes(mask).any(|k| occludes(t[k], q.id[first + k], q.object[first + k])) {
                     return true;
                 }
@@ -972,7 +1016,10 @@ impl Bvh4 {
         if !range.is_empty() {
             stats.prims += range.len() as u64;
             let kind = PrimKind::Triangle;
-            if linear::occludes_range(scene, kind, range, pray, t_min, t_light, id_light, object) {
+            let mut cols = None;
+            if occludes_range(
+                scene, kind, range, consts, &mut cols, t_min, t_light, id_light, object,
+            ) {
                 return true;
             }
         }
@@ -982,11 +1029,11 @@ impl Bvh4 {
     /// `occluded` in the subtree `root` only.
     #[allow(clippy::too_many_arguments)]
     #[inline]
-    pub fn occluded_from(
+    pub(crate) fn occluded_from(
         &self,
         scene: &Scene,
         root: u32,
-        pray: &PrimRay,
+        consts: &mut RayConsts<'_>,
         bray: &BoxRay,
         t_min: f32,
         t_light: f32,
@@ -994,6 +1041,8 @@ impl Bvh4 {
         object: u32,
         stats: &mut TraversalStats,
     ) -> bool {
+        // The triangle columns in this ray's axis order, at the first triangle leaf.
+        let mut cols = None;
         let mut stack = [MaybeUninit::<u32>::uninit(); STACK_SIZE];
         stack[0].write(root);
         let mut sp = 1;
@@ -1005,8 +1054,8 @@ impl Bvh4 {
                 let (kind, start, count) = decode_leaf(code);
                 stats.prims += count as u64;
                 let range = start as usize..(start + count) as usize;
-                if linear::occludes_range(
-                    scene, kind, range, pray, t_min, t_light, id_light, object,
+                if occludes_range(
+                    scene, kind, range, consts, &mut cols, t_min, t_light, id_light, object,
                 ) {
                     return true;
                 }
@@ -1023,6 +1072,64 @@ impl Bvh4 {
             }
         }
         false
+    }
+}
+
+/// Does a primitive in `range` of another object than `object` beat `(t_light,
+/// id_light)` in `[t_min, t_light]`? Spheres and quads one at a time (a quad's plane
+/// first, `QuadPool::intersect_lazy`), triangles four at a time through the columns
+/// `cols` of the ray's axis order (looked up at the ray's first triangle leaf).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn occludes_range<'s>(
+    scene: &'s Scene,
+    kind: PrimKind,
+    range: Range<usize>,
+    consts: &mut RayConsts<'_>,
+    cols: &mut Option<Columns<'s>>,
+    t_min: f32,
+    t_light: f32,
+    id_light: u32,
+    object: u32,
+) -> bool {
+    let beats = |t: f32, id: u32| t < t_light || id < id_light;
+    match kind {
+        PrimKind::Sphere => {
+            let s = &scene.spheres;
+            range.into_iter().any(|i| {
+                s.object[i] != object
+                    && s.intersect(i, &consts.sphere, t_min, t_light)
+                        .is_some_and(|t| beats(t, s.id[i]))
+            })
+        }
+        PrimKind::Quad => {
+            let (q, ray) = (&scene.quads, consts.ray);
+            range.into_iter().any(|i| {
+                q.object[i] != object
+                    && q.intersect_lazy(i, ray, || *consts.triangle(), t_min, t_light)
+                        .is_some_and(|t| beats(t, q.id[i]))
+            })
+        }
+        PrimKind::Triangle => {
+            let tri = &scene.triangles;
+            let w = *consts.triangle();
+            let cols = cols.get_or_insert_with(|| tri.columns(w.axes));
+            let mut start = range.start;
+            while start < range.end {
+                let n = (range.end - start).min(4);
+                let (t, mut mask) = tri.intersect4_in(cols, start, n, &w, t_min, t_light);
+                while mask != 0 {
+                    let k = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let i = start + k;
+                    if tri.object[i] != object && beats(t[k], tri.id[i]) {
+                        return true;
+                    }
+                }
+                start += n;
+            }
+            false
+        }
     }
 }
 

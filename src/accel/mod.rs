@@ -17,7 +17,7 @@ use crate::geometry::{Hit, Ray};
 use crate::lanes::{set_lanes, Lane};
 use crate::scene::{Light, LightShape, Scene};
 use bvh4::Bvh4;
-use linear::{LinearScan, PrimRay};
+use linear::LinearScan;
 use packet::{PacketHits, RayPacket, MAX_WIDTH};
 
 /// Which acceleration structure to build. Both give the same image, bit for bit.
@@ -161,16 +161,7 @@ impl Accel {
             Accel::Linear(l) => l
                 .closest_hit(scene, ray, t_min, f32::INFINITY, stats)
                 .is_some_and(|h| h.object == light.object),
-            Accel::Bvh(b) => {
-                // The watertight constants once, for the light and the occluders.
-                let pray = PrimRay::new(ray);
-                match light.nearest_hit_watertight(ray, &pray.triangle, t_min) {
-                    None => false,
-                    Some((t, id)) => {
-                        !b.occluded_prim(scene, &pray, t_min, t, id, light.object, stats)
-                    }
-                }
-            }
+            Accel::Bvh(b) => b.light_visible(scene, ray, t_min, light, stats),
         }
     }
 

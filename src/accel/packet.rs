@@ -9,11 +9,10 @@
 //! (`Packet::fallback`) is finished one ray at a time by the scalar traversal.
 
 use super::bvh4::{
-    decode_leaf, plane_rows, slab, BoxRay, Bvh4, Node4, Node8, Wide, EMPTY, FAR_SCALE, LEAF,
+    decode_leaf, plane_rows, slab, Bvh4, Node4, Node8, RayConsts, Wide, EMPTY, FAR_SCALE, LEAF,
     NEAR_SCALE,
 };
 use super::cull::Cull;
-use super::linear::PrimRay;
 use super::TraversalStats;
 use crate::geometry::quad::Quad;
 use crate::geometry::quad::{inside_quad, outer_edge_is_zero, plane_distance, quad_edge_functions};
@@ -324,13 +323,6 @@ impl<L: Lane> RayPacket<L> {
     #[inline]
     pub fn ray(&self, k: usize) -> Ray {
         Ray::new(self.origin.lane(k), self.dir.lane(k))
-    }
-
-    /// The scalar constants of lane `k`, for a subtree it finishes alone.
-    #[inline]
-    fn scalar(&self, k: usize) -> (PrimRay, BoxRay) {
-        let ray = self.ray(k);
-        (PrimRay::new(&ray), BoxRay::new(&ray))
     }
 
     /// The lanes whose ray meets `b` in `[t_min, t_max]` (the traversal's conservative
@@ -1035,11 +1027,19 @@ impl Bvh4 {
                     debug_assert!(child != EMPTY);
                     if bits.count_ones() <= fallback {
                         for k in set_lanes(bits) {
-                            let (pray, bray) = p.scalar(k);
+                            let ray = p.ray(k);
+                            let (mut consts, bray) = RayConsts::with_box4(&ray);
                             let mut t_max = st.t.lane(k);
                             let mut best = st.hit(k);
                             self.closest_hit_from(
-                                scene, child, &pray, &bray, t_min, &mut t_max, &mut best, stats,
+                                scene,
+                                child,
+                                &mut consts,
+                                &bray,
+                                t_min,
+                                &mut t_max,
+                                &mut best,
+                                stats,
                             );
                             st.set(k, t_max, best);
                         }
@@ -1280,11 +1280,12 @@ impl Bvh4 {
                     }
                     if bits.count_ones() <= fallback {
                         for k in set_lanes(bits) {
-                            let (pray, bray) = p.scalar(k);
+                            let ray = p.ray(k);
+                            let (mut consts, bray) = RayConsts::with_box4(&ray);
                             if self.occluded_from(
                                 scene,
                                 child,
-                                &pray,
+                                &mut consts,
                                 &bray,
                                 t_min,
                                 t_light.lane(k),

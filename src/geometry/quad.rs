@@ -110,14 +110,12 @@ impl Quad {
         t_min: f32,
         t_max: f32,
     ) -> Option<f32> {
-        let [a, b, c, d] = self.vertices;
-        if !passes_through(w, &[a.to_array(), b.to_array(), c.to_array(), d.to_array()]) {
-            return None;
-        }
+        // The plane first (`QuadPool::intersect`).
         let v = V3::splat;
         let (o, dir) = (v(ray.origin), v(ray.dir));
         let (t, hit) = plane_distance(v(self.normal), self.plane_d, o, dir, t_min, t_max);
-        hit.then_some(t)
+        let [a, b, c, d] = self.vertices.map(|p| p.to_array());
+        (hit && passes_through(w, &[a, b, c, d])).then_some(t)
     }
 
     /// A point uniform over the quad's area from two uniform numbers in [0, 1).
@@ -218,14 +216,29 @@ impl QuadPool {
         t_min: f32,
         t_max: f32,
     ) -> Option<f32> {
-        if !passes_through(w, &self.vertices[i]) {
-            return None;
-        }
+        self.intersect_lazy(i, ray, || *w, t_min, t_max)
+    }
+
+    /// `intersect` with the watertight constants from `w`, called only when the ray
+    /// meets the quad's plane in `[t_min, t_max]`. The plane first: it is the cheaper
+    /// half (one dot product pair and a division against the edge test's four sheared
+    /// vertices and five edge functions), most quads a ray is tested against fail it
+    /// (shadow rays end at their light), and the answer is the same in either order: a
+    /// hit needs both.
+    #[inline(always)]
+    pub fn intersect_lazy(
+        &self,
+        i: usize,
+        ray: &Ray,
+        w: impl FnOnce() -> WatertightRay,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<f32> {
         let [nx, ny, nz, d] = self.plane[i];
         let n = V3::splat(Vec3::new(nx, ny, nz));
         let v = V3::splat;
         let (t, hit) = plane_distance(n, d, v(ray.origin), v(ray.dir), t_min, t_max);
-        hit.then_some(t)
+        (hit && passes_through(&w(), &self.vertices[i])).then_some(t)
     }
 }
 
@@ -285,30 +298,19 @@ impl QuadLanes {
     /// `QuadPool::intersect` of the group's quads with one ray: each lane's distance
     /// and the mask of the quads hit in `[t_min, t_max]`, the bits of the scalar test's
     /// (its steps on lanes of quads; a lane whose outer edge function rounds to zero
-    /// is redone by the scalar edge test, as the packets' are).
+    /// is redone by the scalar edge test, as the packets' are). As there, the planes
+    /// first, and the edge test (and `w`, the ray's watertight constants) only if some
+    /// quad's plane is met in `[t_min, t_max]`.
     #[inline(always)]
     pub fn intersect(
         &self,
         pool: &QuadPool,
         ray: &Ray,
-        w: &WatertightRay,
+        w: impl FnOnce() -> WatertightRay,
         t_min: f32,
         t_max: f32,
     ) -> ([f32; 8], u32) {
-        let [kx, ky, kz] = w.axes;
         let s = f32x8::splat;
-        let o = w.origin.map(s);
-        let (sx, sy) = (s(w.sx), s(w.sy));
-        let v = &self.vertices;
-        let vertex = |m: usize| shear([v[m][kx], v[m][ky], v[m][kz]], o, sx, sy);
-        let e = quad_edge_functions(vertex(0), vertex(1), vertex(2), vertex(3));
-        let valid = (1u32 << self.count) - 1;
-        let mut inside = inside_quad(e).bits();
-        let redo = outer_edge_is_zero(e).bits() & valid;
-        for k in set_lanes(redo) {
-            let through = passes_through(w, &pool.vertices[self.first + k]);
-            inside = (inside & !(1 << k)) | ((through as u32) << k);
-        }
         let (t, hit) = plane_distance(
             self.normal,
             self.plane_d,
@@ -317,7 +319,24 @@ impl QuadLanes {
             s(t_min),
             s(t_max),
         );
-        (t.to_array(), inside & hit.bits() & valid)
+        let near = hit.bits() & ((1u32 << self.count) - 1);
+        if near == 0 {
+            return ([0.0; 8], 0);
+        }
+        let w = w();
+        let [kx, ky, kz] = w.axes;
+        let o = w.origin.map(s);
+        let (sx, sy) = (s(w.sx), s(w.sy));
+        let v = &self.vertices;
+        let vertex = |m: usize| shear([v[m][kx], v[m][ky], v[m][kz]], o, sx, sy);
+        let e = quad_edge_functions(vertex(0), vertex(1), vertex(2), vertex(3));
+        let mut inside = inside_quad(e).bits();
+        let redo = outer_edge_is_zero(e).bits() & near;
+        for k in set_lanes(redo) {
+            let through = passes_through(&w, &pool.vertices[self.first + k]);
+            inside = (inside & !(1 << k)) | ((through as u32) << k);
+        }
+        (t.to_array(), inside & near)
     }
 }
 
