@@ -15,10 +15,10 @@ pub mod packet;
 
 use crate::geometry::{Hit, Ray};
 use crate::lanes::{set_lanes, Lane};
-use crate::scene::{Light, LightShape, Scene};
+use crate::scene::{Light, Scene};
 use bvh4::Bvh4;
 use linear::LinearScan;
-use packet::{PacketHits, RayPacket, MAX_WIDTH};
+use packet::{PacketHits, RayPacket};
 
 /// Which acceleration structure to build. Both give the same image, bit for bit.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -209,45 +209,7 @@ impl Accel {
                 }
                 visible
             }
-            Accel::Bvh(b) => {
-                let (t_light, id_light, reach) =
-                    if let LightShape::Point { center, radius } = light.shape {
-                        // `nearest_hit` of a point light, lane-wise.
-                        let (t, hits) = p.sphere(center, radius, t_min, f32::INFINITY, lanes);
-                        (t, [light.first_id; MAX_WIDTH], hits)
-                    } else {
-                        let (t, id, reach) = if let LightShape::Quads(qs) = &light.shape {
-                            p.quad_light_hits(scene, qs, light.first_id, t_min, lanes)
-                        } else {
-                            let mut t_light = [0.0; MAX_WIDTH];
-                            let mut id_light = [0; MAX_WIDTH];
-                            let mut reach = 0;
-                            for k in set_lanes(lanes) {
-                                if let Some((t, id)) = light.nearest_hit(&p.ray(k), t_min) {
-                                    t_light[k] = t;
-                                    id_light[k] = id;
-                                    reach |= 1 << k;
-                                }
-                            }
-                            (t_light, id_light, reach)
-                        };
-                        (L::from_fn(|k| t[k]), id, reach)
-                    };
-                if reach == 0 {
-                    return 0;
-                }
-                let occluded = b.occluded_packet(
-                    scene,
-                    p,
-                    t_min,
-                    t_light,
-                    &id_light,
-                    light.object,
-                    reach,
-                    stats,
-                );
-                reach & !occluded
-            }
+            Accel::Bvh(b) => b.light_visible_packet(scene, p, t_min, light, lanes, stats),
         }
     }
 }
