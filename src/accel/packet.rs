@@ -189,7 +189,8 @@ impl<L: Lane> RayPacket<L> {
                 [(kz + 1) % 3, (kz + 2) % 3, kz]
             };
             return Some(TriangleLanes {
-                order: Order::Uniform(axes, pool.columns(axes)),
+                // No columns without triangles (quad-only scenes): nine slices checked.
+                order: Order::Uniform(axes, (!pool.is_empty()).then(|| pool.columns(axes))),
                 origin: [o[kx], o[ky], o[kz]],
                 sx: d[kx] / d[kz],
                 sy: d[ky] / d[kz],
@@ -302,10 +303,8 @@ impl<L: Lane> RayPacket<L> {
     /// must redo (`TriangleLanes::quad_edges`). The plane first, as the scalar test
     /// (`QuadPool::intersect_lazy`): the edge test, and the packet's watertight lanes
     /// (`tris`), only for the lanes that meet the plane in `[t_min, t_max]`. Both masks
-    /// are empty when none does. Out of line: inlined into the packet loops it cost
-    /// `bunny`, which has no quad, 1.3% more render instructions (8 wide, callgrind),
-    /// and saved `cornell` 0.5%.
-    #[inline(never)]
+    /// are empty when none does.
+    #[inline(always)]
     fn quad(
         &self,
         tris: &mut LazyTriangles<'_, L>,
@@ -321,13 +320,19 @@ impl<L: Lane> RayPacket<L> {
         if near == 0 {
             return (t, 0, 0);
         }
+        let (inside, exact_zero) = Self::quad_edges(tris, q, near);
+        (t, inside, exact_zero)
+    }
+
+    /// `quad`'s edge test on the lanes `near`. Out of line: the whole test inlined into
+    /// the packet loops cost `bunny`, which has no quad, 1.3% more render instructions
+    /// (8 wide, callgrind).
+    #[inline(never)]
+    fn quad_edges(tris: &mut LazyTriangles<'_, L>, q: &[[f32; 3]; 4], near: u32) -> (u32, u32) {
         // A scene with quads always gets the lanes; `None` would redo every lane.
         match tris.get(PrimKind::Quad) {
-            Some(tri) => {
-                let (inside, exact_zero) = tri.quad_edges(q, near);
-                (t, inside, exact_zero)
-            }
-            None => (t, 0, near),
+            Some(tri) => tri.quad_edges(q, near),
+            None => (0, near),
         }
     }
 
@@ -454,7 +459,7 @@ impl<L: Lane> RayPacket<L> {
             PrimKind::Triangle => match tris.get(kind) {
                 Some(
                     tri @ TriangleLanes {
-                        order: Order::Uniform(_, cols),
+                        order: Order::Uniform(_, Some(cols)),
                         ..
                     },
                 ) => {
@@ -582,7 +587,7 @@ impl<L: Lane> TriangleLanes<'_, L> {
 /// The lanes' axis order [kx, ky, kz].
 enum Order<'a, L: Lane> {
     /// The same in every lane, with the triangle columns in that order.
-    Uniform([usize; 3], Columns<'a>),
+    Uniform([usize; 3], Option<Columns<'a>>),
     /// Per lane: for kx, ky and kz, the lanes where it is x and those where it is y (else
     /// it is z).
     PerLane([[L::Mask; 2]; 3]),
@@ -643,6 +648,93 @@ fn ids(scene: &Scene, kind: PrimKind, i: usize) -> (u32, u32) {
         PrimKind::Quad => (scene.quads.id[i], scene.quads.object[i]),
         PrimKind::Triangle => (scene.triangles.id[i], scene.triangles.object[i]),
     }
+}
+
+/// What the lanes of a shadow packet look for: per lane the light object's own nearest
+/// hit `(t, id)` (the id in an f32's bits), the object, and the kind of its primitives
+/// when it is a light (an object is one sphere, quads or triangles; `None`: any kind
+/// may be the object's).
+#[derive(Clone, Copy)]
+struct ShadowTarget<L> {
+    t: L,
+    id: L,
+    object: u32,
+    kind: Option<PrimKind>,
+}
+
+/// The lanes of `lanes` for which a primitive of `range` (of `kind`) occludes `light`
+/// (`Bvh4::occluded_lanes`) within `t_max`.
+/// Inlined into the traversal (a closure call cost `cornell`'s shadow packets 12% more
+/// instructions, `packet_probe cornell 8 shadow`), one loop per kind: with the kind
+/// known, each loop holds only its kind's test (the tree's leaves, whose kind is not
+/// known, take `occluders_of` with all three: a copy per kind there cost more).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn occluders<L: Lane>(
+    scene: &Scene,
+    p: &RayPacket<L>,
+    light: ShadowTarget<L>,
+    kind: PrimKind,
+    range: std::ops::Range<usize>,
+    t_min: f32,
+    lanes: u32,
+    t_max: L,
+    tris: &mut LazyTriangles<'_, L>,
+) -> u32 {
+    let (s, r, l) = (scene, range, lanes);
+    match kind {
+        PrimKind::Sphere => occluders_of(s, p, light, PrimKind::Sphere, r, t_min, l, t_max, tris),
+        PrimKind::Quad => occluders_of(s, p, light, PrimKind::Quad, r, t_min, l, t_max, tris),
+        PrimKind::Triangle => {
+            occluders_of(s, p, light, PrimKind::Triangle, r, t_min, l, t_max, tris)
+        }
+    }
+}
+
+/// `occluders` for primitives of `kind`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn occluders_of<L: Lane>(
+    scene: &Scene,
+    p: &RayPacket<L>,
+    light: ShadowTarget<L>,
+    kind: PrimKind,
+    range: std::ops::Range<usize>,
+    t_min: f32,
+    lanes: u32,
+    t_max: L,
+    tris: &mut LazyTriangles<'_, L>,
+) -> u32 {
+    let mut found = 0;
+    // Primitives of the object's own kind are skipped before their test (the light's
+    // quads are dear to test); the others cannot be the object's, and their ids are
+    // looked up only when some lane hits them.
+    let (t_light, object) = (light.t, light.object);
+    let check_first = light.kind.is_none_or(|k| k == kind);
+    for i in range {
+        if check_first && ids(scene, kind, i).1 == object {
+            continue;
+        }
+        let (t, bits) = p.test_prim(scene, kind, i, t_min, t_max, lanes & !found, tris);
+        if bits == 0 {
+            continue;
+        }
+        let (id, obj) = ids(scene, kind, i);
+        if obj == object {
+            continue;
+        }
+        // `beats` lane-wise: nearer than the light, or as near with a smaller id.
+        found |= t.lt(t_light).bits() & bits;
+        for k in set_lanes(t.eq(t_light).bits() & bits) {
+            if id < light.id.lane(k).to_bits() {
+                found |= 1 << k;
+            }
+        }
+        if found == lanes {
+            break;
+        }
+    }
+    found
 }
 
 /// The kind of a light's primitives.
@@ -902,6 +994,28 @@ impl<L: Lane> PacketHits<L> {
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn leaf(
+        &mut self,
+        scene: &Scene,
+        p: &RayPacket<L>,
+        kind: PrimKind,
+        range: std::ops::Range<usize>,
+        t_min: f32,
+        lanes: u32,
+        tris: &mut LazyTriangles<'_, L>,
+    ) {
+        // One loop per kind, each with its kind's test only.
+        let (r, l) = (range, lanes);
+        match kind {
+            PrimKind::Sphere => self.leaf_of(scene, p, PrimKind::Sphere, r, t_min, l, tris),
+            PrimKind::Quad => self.leaf_of(scene, p, PrimKind::Quad, r, t_min, l, tris),
+            PrimKind::Triangle => self.leaf_of(scene, p, PrimKind::Triangle, r, t_min, l, tris),
+        }
+    }
+
+    /// `leaf` for primitives of `kind`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn leaf_of(
         &mut self,
         scene: &Scene,
         p: &RayPacket<L>,
@@ -1208,7 +1322,12 @@ impl Bvh4 {
             .map(|l| light_kind(&l.shape));
         let id_light = L::from_fn(|k| f32::from_bits(id_light[k]));
         let mut tris = LazyTriangles::new(p, scene);
-        let light = (t_light, id_light, object, object_kind);
+        let light = ShadowTarget {
+            t: t_light,
+            id: id_light,
+            object,
+            kind: object_kind,
+        };
         self.occluded_lanes(scene, p, t_min, light, lanes, &mut tris, stats)
     }
 
@@ -1254,17 +1373,16 @@ impl Bvh4 {
         if reach == 0 {
             return 0;
         }
-        let own = (
-            t_light,
-            id_light,
-            light.object,
-            Some(light_kind(&light.shape)),
-        );
+        let own = ShadowTarget {
+            t: t_light,
+            id: id_light,
+            object: light.object,
+            kind: Some(light_kind(&light.shape)),
+        };
         reach & !self.occluded_lanes(scene, p, t_min, own, reach, &mut tris, stats)
     }
 
-    /// `occluded_packet` with the light as lanes: `(t_light, id_light (an f32's bits),
-    /// object, the kind of the object's primitives if known)`.
+    /// `occluded_packet` with the light as lanes.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn occluded_lanes<L: Lane>(
@@ -1272,7 +1390,7 @@ impl Bvh4 {
         scene: &Scene,
         p: &RayPacket<L>,
         t_min: f32,
-        (t_light, id_light, object, object_kind): (L, L, u32, Option<PrimKind>),
+        light: ShadowTarget<L>,
         lanes: u32,
         tris: &mut LazyTriangles<'_, L>,
         stats: &mut TraversalStats,
@@ -1280,44 +1398,12 @@ impl Bvh4 {
         let mut remaining = lanes & p.active;
         let mut occluded = 0u32;
         // Lanes not tested get t_max = −∞ (no box or primitive test passes).
-        let mut t_max = in_play(remaining, t_light);
-        let mut leaf =
-            |kind: PrimKind, range: std::ops::Range<usize>, lanes: u32, t_max: L| -> u32 {
-                let mut found = 0;
-                // Primitives of the object's own kind are skipped before their test (the
-                // light's quads are dear to test); the others cannot be the object's, and
-                // their ids are looked up only when some lane hits them.
-                let check_first = object_kind.is_none_or(|k| k == kind);
-                for i in range {
-                    if check_first && ids(scene, kind, i).1 == object {
-                        continue;
-                    }
-                    let (t, bits) = p.test_prim(scene, kind, i, t_min, t_max, lanes & !found, tris);
-                    if bits == 0 {
-                        continue;
-                    }
-                    let (id, obj) = ids(scene, kind, i);
-                    if obj == object {
-                        continue;
-                    }
-                    // `beats` lane-wise: nearer than the light, or as near with a smaller id.
-                    found |= t.lt(t_light).bits() & bits;
-                    for k in set_lanes(t.eq(t_light).bits() & bits) {
-                        if id < id_light.lane(k).to_bits() {
-                            found |= 1 << k;
-                        }
-                    }
-                    if found == lanes {
-                        break;
-                    }
-                }
-                found
-            };
+        let mut t_max = in_play(remaining, light.t);
         for (k, &kind) in KINDS.iter().enumerate() {
             let range = self.linear[k].clone();
             if !range.is_empty() && remaining != 0 {
                 stats.prims += (range.len() * remaining.count_ones() as usize) as u64;
-                let found = leaf(kind, range, remaining, t_max);
+                let found = occluders(scene, p, light, kind, range, t_min, remaining, t_max, tris);
                 occluded |= found;
                 remaining &= !found;
             }
@@ -1353,7 +1439,8 @@ impl Bvh4 {
             if code & LEAF != 0 {
                 let (kind, start, count) = decode_leaf(code);
                 stats.prims += (count * lanes.count_ones()) as u64;
-                found = leaf(kind, start as usize..(start + count) as usize, lanes, t_max);
+                let range = start as usize..(start + count) as usize;
+                found = occluders_of(scene, p, light, kind, range, t_min, lanes, t_max, tris);
             } else {
                 stats.nodes += 1;
                 stats.packet_nodes += 1;
@@ -1385,9 +1472,9 @@ impl Bvh4 {
                                 &mut consts,
                                 &bray,
                                 t_min,
-                                t_light.lane(k),
-                                id_light.lane(k).to_bits(),
-                                object,
+                                light.t.lane(k),
+                                light.id.lane(k).to_bits(),
+                                light.object,
                                 stats,
                             ) {
                                 found |= 1 << k;
