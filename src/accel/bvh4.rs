@@ -383,13 +383,6 @@ pub(crate) struct RayConsts<'r> {
 }
 
 impl<'r> RayConsts<'r> {
-    /// The constants, and the box test's for the 8-wide tree.
-    #[inline(always)]
-    fn new(ray: &'r Ray) -> (RayConsts<'r>, BoxRay8) {
-        let (consts, q) = Self::with_reciprocals(ray);
-        (consts, BoxRay8::from_inv(ray, q))
-    }
-
     /// The constants, and the box test's for the 4-wide tree (which shadow rays and the
     /// lanes a packet finishes alone traverse).
     #[inline(always)]
@@ -744,7 +737,8 @@ impl Bvh4 {
         t_max: f32,
         stats: &mut TraversalStats,
     ) -> Option<Hit> {
-        let (mut consts, bray) = RayConsts::new(ray);
+        let (mut consts, q) = RayConsts::with_reciprocals(ray);
+        let bray = BoxRay8::from_inv(ray, q);
         let mut c = Closest::new(t_max, &None);
         // The tree first, the spheres beside it after: their test (a square root and a
         // division) then does not delay the root's box test, which would wait for the
@@ -881,11 +875,11 @@ impl Bvh4 {
         object: u32,
         stats: &mut TraversalStats,
     ) -> bool {
-        let (mut consts, bray) = RayConsts::with_box4(ray);
+        let (mut consts, q) = RayConsts::with_reciprocals(ray);
         self.occluded_consts(
             scene,
             &mut consts,
-            &bray,
+            q,
             t_min,
             t_light,
             id_light,
@@ -907,7 +901,7 @@ impl Bvh4 {
         light: &Light,
         stats: &mut TraversalStats,
     ) -> bool {
-        let (mut consts, bray) = RayConsts::with_box4(ray);
+        let (mut consts, q) = RayConsts::with_reciprocals(ray);
         let own = match light.shape {
             LightShape::Point { center, radius } => {
                 sphere_intersect_with(center, radius, &consts.sphere, t_min, f32::INFINITY)
@@ -921,7 +915,7 @@ impl Bvh4 {
         !self.occluded_consts(
             scene,
             &mut consts,
-            &bray,
+            q,
             t_min,
             t_light,
             id_light,
@@ -930,14 +924,16 @@ impl Bvh4 {
         )
     }
 
-    /// `occluded` with the ray's constants made.
+    /// `occluded` with the ray's constants and reciprocals `q` (`with_reciprocals`)
+    /// made: beside the tree, then through the 8-wide tree (fewer nodes a ray than the
+    /// 4-wide one, as for closest hits), whose box constants are made only then.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn occluded_consts(
         &self,
         scene: &Scene,
         consts: &mut RayConsts<'_>,
-        bray: &BoxRay,
+        q: Vec4,
         t_min: f32,
         t_light: f32,
         id_light: u32,
@@ -948,9 +944,9 @@ impl Bvh4 {
             return true;
         }
         let Some(root) = self.root else { return false };
-        self.occluded_from(
-            scene, root, consts, bray, t_min, t_light, id_light, object, stats,
-        )
+        let bray = BoxRay::from_inv(consts.ray, q.truncate());
+        let light = (t_light, id_light, object);
+        occluded_in(&self.nodes, scene, root, consts, &bray, t_min, light, stats)
     }
 
     /// `occluded` among the primitives beside the tree: the spheres four and the quads
@@ -1026,7 +1022,7 @@ impl Bvh4 {
         false
     }
 
-    /// `occluded` in the subtree `root` only.
+    /// `occluded` in the subtree `root` (of the 4-wide tree) only.
     #[allow(clippy::too_many_arguments)]
     #[inline]
     pub(crate) fn occluded_from(
@@ -1041,38 +1037,58 @@ impl Bvh4 {
         object: u32,
         stats: &mut TraversalStats,
     ) -> bool {
-        // The triangle columns in this ray's axis order, at the first triangle leaf.
-        let mut cols = None;
-        let mut stack = [MaybeUninit::<u32>::uninit(); STACK_SIZE];
-        stack[0].write(root);
-        let mut sp = 1;
-        while sp > 0 {
-            sp -= 1;
-            // SAFETY: as in `closest_hit_from`, only written slots are read.
-            let code = unsafe { stack[sp].assume_init() };
-            if code & LEAF != 0 {
-                let (kind, start, count) = decode_leaf(code);
-                stats.prims += count as u64;
-                let range = start as usize..(start + count) as usize;
-                if occludes_range(
-                    scene, kind, range, consts, &mut cols, t_min, t_light, id_light, object,
-                ) {
-                    return true;
-                }
-                continue;
-            }
-            stats.nodes += 1;
-            let node = &self.nodes[code as usize];
-            let (_, mut mask) = bray.test(node, t_min, t_light);
-            while mask != 0 {
-                let i = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                stack[sp].write(node.child[i]);
-                sp += 1;
-            }
-        }
-        false
+        let light = (t_light, id_light, object);
+        occluded_in(&self.nodes, scene, root, consts, bray, t_min, light, stats)
     }
+}
+
+/// The scalar any-hit traversal of `tree` from `root`: is there a primitive of another
+/// object than the light's `object` that beats `(t_light, id_light)` in `[t_min,
+/// t_light]`? Every child a node's box test hits is pushed (no order: the first
+/// occluder ends the search).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn occluded_in<N: Wide>(
+    tree: &[N],
+    scene: &Scene,
+    root: u32,
+    consts: &mut RayConsts<'_>,
+    bray: &N::Ray,
+    t_min: f32,
+    (t_light, id_light, object): (f32, u32, u32),
+    stats: &mut TraversalStats,
+) -> bool {
+    // The triangle columns in this ray's axis order, at the first triangle leaf.
+    let mut cols = None;
+    let mut stack = [MaybeUninit::<u32>::uninit(); STACK_SIZE];
+    stack[0].write(root);
+    let mut sp = 1;
+    while sp > 0 {
+        sp -= 1;
+        // SAFETY: as in `traverse`, only written slots are read.
+        let code = unsafe { stack[sp].assume_init() };
+        if code & LEAF != 0 {
+            let (kind, start, count) = decode_leaf(code);
+            stats.prims += count as u64;
+            let range = start as usize..(start + count) as usize;
+            if occludes_range(
+                scene, kind, range, consts, &mut cols, t_min, t_light, id_light, object,
+            ) {
+                return true;
+            }
+            continue;
+        }
+        stats.nodes += 1;
+        let node = &tree[code as usize];
+        let (_, mut mask) = node.test(bray, t_min, t_light);
+        while mask != 0 {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            stack[sp].write(node.child(i));
+            sp += 1;
+        }
+    }
+    false
 }
 
 /// Does a primitive in `range` of another object than `object` beat `(t_light,
@@ -1080,7 +1096,7 @@ impl Bvh4 {
 /// first, `QuadPool::intersect_lazy`), triangles four at a time through the columns
 /// `cols` of the ray's axis order (looked up at the ray's first triangle leaf).
 #[allow(clippy::too_many_arguments)]
-#[inline]
+#[inline(always)]
 fn occludes_range<'s>(
     scene: &'s Scene,
     kind: PrimKind,
@@ -1094,21 +1110,31 @@ fn occludes_range<'s>(
 ) -> bool {
     let beats = |t: f32, id: u32| t < t_light || id < id_light;
     match kind {
+        // Plain loops: as `Iterator::any` the quads' loop was left out of line, a call
+        // per leaf (callgrind, the scalar `cornell` render).
         PrimKind::Sphere => {
             let s = &scene.spheres;
-            range.into_iter().any(|i| {
-                s.object[i] != object
+            for i in range {
+                if s.object[i] != object
                     && s.intersect(i, &consts.sphere, t_min, t_light)
                         .is_some_and(|t| beats(t, s.id[i]))
-            })
+                {
+                    return true;
+                }
+            }
+            false
         }
         PrimKind::Quad => {
             let (q, ray) = (&scene.quads, consts.ray);
-            range.into_iter().any(|i| {
-                q.object[i] != object
+            for i in range {
+                if q.object[i] != object
                     && q.intersect_lazy(i, ray, || *consts.triangle(), t_min, t_light)
                         .is_some_and(|t| beats(t, q.id[i]))
-            })
+                {
+                    return true;
+                }
+            }
+            false
         }
         PrimKind::Triangle => {
             let tri = &scene.triangles;
