@@ -1055,8 +1055,9 @@ impl Bvh4 {
 
 /// The scalar any-hit traversal of `tree` from `root`: is there a primitive of another
 /// object than the light's `object` that beats `(t_light, id_light)` in `[t_min,
-/// t_light]`? Every child a node's box test hits is pushed (no order: the first
-/// occluder ends the search).
+/// t_light]`? Of the children a node's box test hits, the leaves are tested there and
+/// the inner nodes pushed (no order: the first occluder ends the search), so a leaf
+/// costs no push and pop.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn occluded_in<N: Wide>(
@@ -1066,40 +1067,58 @@ fn occluded_in<N: Wide>(
     consts: &mut RayConsts<'_>,
     bray: &N::Ray,
     t_min: f32,
-    (t_light, id_light, object): (f32, u32, u32),
+    light: (f32, u32, u32),
     stats: &mut TraversalStats,
 ) -> bool {
     // The triangle columns in this ray's axis order, at the first triangle leaf.
     let mut cols = None;
+    if root & LEAF != 0 {
+        return leaf_occludes(scene, root, consts, &mut cols, t_min, light, stats);
+    }
     let mut stack = [MaybeUninit::<u32>::uninit(); STACK_SIZE];
-    stack[0].write(root);
-    let mut sp = 1;
-    while sp > 0 {
-        sp -= 1;
-        // SAFETY: as in `traverse`, only written slots are read.
-        let code = unsafe { stack[sp].assume_init() };
-        if code & LEAF != 0 {
-            let (kind, start, count) = decode_leaf(code);
-            stats.prims += count as u64;
-            let range = start as usize..(start + count) as usize;
-            if occludes_range(
-                scene, kind, range, consts, &mut cols, t_min, t_light, id_light, object,
-            ) {
-                return true;
-            }
-            continue;
-        }
+    let mut sp = 0;
+    let mut code = root;
+    loop {
         stats.nodes += 1;
         let node = &tree[code as usize];
-        let (_, mut mask) = node.test(bray, t_min, t_light);
+        let (_, mut mask) = node.test(bray, t_min, light.0);
         while mask != 0 {
             let i = mask.trailing_zeros() as usize;
             mask &= mask - 1;
-            stack[sp].write(node.child(i));
-            sp += 1;
+            let child = node.child(i);
+            if child & LEAF == 0 {
+                stack[sp].write(child);
+                sp += 1;
+            } else if leaf_occludes(scene, child, consts, &mut cols, t_min, light, stats) {
+                return true;
+            }
         }
+        if sp == 0 {
+            return false;
+        }
+        sp -= 1;
+        // SAFETY: as in `traverse`, only written slots are read.
+        code = unsafe { stack[sp].assume_init() };
     }
-    false
+}
+
+/// `occludes_range` on the leaf `code`'s primitives.
+#[inline(always)]
+fn leaf_occludes<'s>(
+    scene: &'s Scene,
+    code: u32,
+    consts: &mut RayConsts<'_>,
+    cols: &mut Option<Columns<'s>>,
+    t_min: f32,
+    (t_light, id_light, object): (f32, u32, u32),
+    stats: &mut TraversalStats,
+) -> bool {
+    let (kind, start, count) = decode_leaf(code);
+    stats.prims += count as u64;
+    let range = start as usize..(start + count) as usize;
+    occludes_range(
+        scene, kind, range, consts, cols, t_min, t_light, id_light, object,
+    )
 }
 
 /// Does a primitive in `range` of another object than `object` beat `(t_light,
