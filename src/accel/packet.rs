@@ -1482,6 +1482,15 @@ impl Bvh4 {
                         }
                         continue;
                     }
+                    // A leaf child is tested here, without a push and pop.
+                    if child & LEAF != 0 {
+                        let (kind, start, count) = decode_leaf(child);
+                        stats.prims += (count * bits.count_ones()) as u64;
+                        let range = start as usize..(start + count) as usize;
+                        found |=
+                            occluders_of(scene, p, light, kind, range, t_min, bits, t_max_l, tris);
+                        continue;
+                    }
                     stack[sp].write((child, bits));
                     sp += 1;
                 }
