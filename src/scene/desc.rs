@@ -54,6 +54,13 @@ pub struct CameraDesc {
     pub look_at: [f64; 3],
     #[serde(default = "defaults::up")]
     pub up: [f64; 3],
+    /// Degrees (0: a pinhole); the lens disk's radius is `focus_dist · tan(angle / 2)`.
+    /// Spanned, so that a bad value's message points at it.
+    #[serde(default)]
+    pub defocus_angle: Option<Spanned<f64>>,
+    /// Distance of the plane in focus, which holds the viewport (default 1).
+    #[serde(default)]
+    pub focus_dist: Option<Spanned<f64>>,
 }
 
 impl Default for CameraDesc {
@@ -67,6 +74,8 @@ impl Default for CameraDesc {
             look_from: [0.0; 3],
             look_at: defaults::look_at(),
             up: defaults::up(),
+            defocus_angle: None,
+            focus_dist: None,
         }
     }
 }

@@ -9,7 +9,7 @@ pub mod builtin;
 pub mod desc;
 pub mod mesh;
 
-use crate::camera::{image_height, Camera};
+use crate::camera::{image_height, Camera, Lens};
 use crate::error::{Error, Result};
 use crate::geometry::quad::{box_faces, Quad};
 use crate::geometry::sphere::sphere_intersect;
@@ -474,6 +474,29 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
             ));
         }
     }
+    // The lens: a bad value is reported where it is set.
+    let value = |v: &Option<toml::Spanned<f64>>, default| {
+        v.as_ref()
+            .map_or((default, cam_at), |v| (*v.get_ref(), v.span().start))
+    };
+    let (defocus_angle, angle_at) = value(&cam.defocus_angle, Lens::PINHOLE.defocus_angle);
+    if !(0.0..180.0).contains(&defocus_angle) {
+        return Err(err(
+            angle_at,
+            format!("camera defocus_angle must be at least 0 and below 180 degrees, got {defocus_angle}"),
+        ));
+    }
+    let (focus_dist, focus_at) = value(&cam.focus_dist, Lens::PINHOLE.focus_dist);
+    if !(focus_dist.is_finite() && focus_dist > 0.0) {
+        return Err(err(
+            focus_at,
+            format!("camera focus_dist must be finite and positive, got {focus_dist}"),
+        ));
+    }
+    let lens = Lens {
+        focus_dist,
+        defocus_angle,
+    };
     let camera = Camera::new(
         width,
         height,
@@ -481,10 +504,12 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
         DVec3::from(cam.look_from),
         DVec3::from(cam.look_at),
         DVec3::from(cam.up),
+        lens,
     )
     .ok_or_else(|| {
         err(cam_at, "camera look_from and look_at must differ, and up must not be parallel to the view direction".into())
     })?;
+    check_focus(&camera, lens).map_err(|msg| err(focus_at, msg))?;
 
     // Background and ambient.
     let colour = |c: &Option<toml::Spanned<[f32; 3]>>, key: &str| -> Result<Vec3> {
@@ -680,6 +705,43 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
         bounds,
         degenerate_triangles,
     })
+}
+
+/// The smallest `focus_dist`, relative to the camera's largest coordinate C (`look_from`
+/// and the lens disk's reach): f32 numbers near C are at most 2⁻²³·C apart, so the
+/// viewport, at least `focus_dist` from every lens point, stays 8 such steps away and no
+/// camera ray's direction rounds to zero. (With the default `focus_dist = 1`, any
+/// `look_from` within ±2²⁰.)
+pub const MIN_FOCUS_RELATIVE: f64 = 1.0 / (1 << 20) as f64;
+
+/// The smallest `focus_dist` at all: the viewport's f32 values stay normal numbers.
+pub const MIN_FOCUS: f64 = 1e-20;
+
+/// The f32 camera is finite and its viewport far enough from its lens for f32
+/// (`MIN_FOCUS_RELATIVE`, `MIN_FOCUS`).
+fn check_focus(camera: &Camera, lens: Lens) -> Result<(), String> {
+    let reach = camera.origin.abs() + camera.lens_u.abs() + camera.lens_v.abs();
+    let parts = [
+        camera.corner,
+        camera.pixel_du,
+        camera.pixel_dv,
+        camera.lens_u,
+        camera.lens_v,
+    ];
+    if !parts.iter().all(|v| v.is_finite()) || !reach.is_finite() {
+        return Err(format!(
+            "camera focus_dist {} and defocus_angle {} make the viewport or the lens too large for f32",
+            lens.focus_dist, lens.defocus_angle
+        ));
+    }
+    let least = (reach.max_element() as f64 * MIN_FOCUS_RELATIVE).max(MIN_FOCUS);
+    if lens.focus_dist < least {
+        return Err(format!(
+            "camera focus_dist must be at least {least:e} here (2^-20 of the camera's largest coordinate, and 1e-20), got {}",
+            lens.focus_dist
+        ));
+    }
+    Ok(())
 }
 
 fn parse_aspect_parts(t: &str) -> Option<(u64, u64)> {
