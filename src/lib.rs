@@ -35,6 +35,7 @@
 
 mod error;
 mod film;
+mod region;
 mod renderer;
 mod settings;
 
@@ -43,6 +44,7 @@ pub use error::{Error, Result};
 pub use film::Film;
 pub use glam::Vec3;
 pub use integrator::RayCounts;
+pub use region::{Rect, Region};
 pub use renderer::{Rendered, Renderer, SceneFile, SceneOptions};
 pub use rng::SamplerKind;
 pub use settings::{PacketWidth, RenderSettings};
