@@ -79,6 +79,20 @@ pub enum Error {
         /// Why.
         message: String,
     },
+
+    /// A part file that cannot be used: malformed, truncated, corrupt, or from another
+    /// scene, setting or program than the parts it is merged with, or overlapping one.
+    #[error("{}: {message}", path.display())]
+    Part {
+        /// The part file.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
+
+    /// Part files that together do not make a frame (pixels that no part holds).
+    #[error("{0}")]
+    Merge(String),
 }
 
 /// `Result` with the library's [`Error`].
