@@ -4,7 +4,7 @@
 use clap::{Parser, Subcommand, ValueEnum};
 use raytracer::accel::AccelKind;
 use raytracer::rng::SamplerKind;
-use raytracer::PacketWidth;
+use raytracer::{PacketWidth, Rect, Region};
 use std::path::PathBuf;
 
 /// `--version` says whether the AVX2 lanes were compiled in (`.cargo/config.toml`).
@@ -95,6 +95,17 @@ pub struct Args {
     /// Write a JSON report of sizes, timings and ray counts to this file.
     #[arg(long)]
     pub report: Option<PathBuf>,
+
+    /// Render part I of N (0-based) of the frame and write it as a part file
+    /// (-o NAME.part, default <scene>-<I>of<N>.part); `raytracer merge` puts the parts
+    /// together. Each part gets every N-th tile of the frame, spread over all of it.
+    #[arg(long, value_name = "I/N", value_parser = parse_region, conflicts_with = "crop")]
+    pub region: Option<Region>,
+
+    /// Render only the pixels [X0, X1) x [Y0, Y1) of the frame, as a part file
+    /// (-o NAME.part, default <scene>-crop-X0-Y0-X1-Y1.part).
+    #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_crop)]
+    pub crop: Option<Rect>,
 }
 
 /// The error-against-time commands.
@@ -163,6 +174,37 @@ pub struct SweepArgs {
     /// Worker threads [default: all cores].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
     pub threads: Option<u32>,
+}
+
+/// `--region I/N`: part I of N, with 0 <= I < N <= `Region::MAX_PARTS`.
+fn parse_region(s: &str) -> Result<Region, String> {
+    let bad = || {
+        format!(
+            "must be I/N with 0 <= I < N <= {}, got '{s}'",
+            Region::MAX_PARTS
+        )
+    };
+    let (index, count) = s.split_once('/').ok_or_else(bad)?;
+    let index: u32 = index.parse().map_err(|_| bad())?;
+    let count: u32 = count.parse().map_err(|_| bad())?;
+    if index >= count || count > Region::MAX_PARTS {
+        return Err(bad());
+    }
+    Ok(Region::Part { index, count })
+}
+
+/// `--crop X0,Y0,X1,Y1`: a non-empty window (whether it fits the image is checked once
+/// the scene says how large the image is).
+fn parse_crop(s: &str) -> Result<Rect, String> {
+    let bad = || format!("must be X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1, got '{s}'");
+    let v: Vec<u32> = s
+        .split(',')
+        .map(|x| x.trim().parse().map_err(|_| bad()))
+        .collect::<Result<_, _>>()?;
+    match v[..] {
+        [x0, y0, x1, y1] if x0 < x1 && y0 < y1 => Ok(Rect::new(x0, y0, x1, y1)),
+        _ => Err(bad()),
+    }
 }
 
 /// `--sampler`: the library's `SamplerKind` as the command line spells it.

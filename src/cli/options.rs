@@ -4,8 +4,8 @@
 use super::args::{self, Args};
 use super::scene_stem;
 use raytracer::output::{self, ImageFormat};
-use raytracer::{PacketWidth, RenderSettings, SamplerKind, SceneOptions};
-use std::path::PathBuf;
+use raytracer::{PacketWidth, Region, RenderSettings, SamplerKind, SceneOptions};
+use std::path::{Path, PathBuf};
 
 /// What the command line asks for.
 #[derive(Debug)]
@@ -24,6 +24,9 @@ pub struct RenderOptions {
     pub scene: String,
     pub scene_options: SceneOptions,
     pub settings: RenderSettings,
+    /// `Some`: render this region into a part file (`--region`, `--crop`, or the whole
+    /// frame for `-o NAME.part`); `None`: render the frame into an image.
+    pub region: Option<Region>,
     pub output: PathBuf,
     pub report: Option<PathBuf>,
     pub stats: bool,
@@ -79,10 +82,27 @@ pub fn from_args(args: Args) -> anyhow::Result<(Options, Option<u32>)> {
 
 fn render(args: Args) -> anyhow::Result<RenderOptions> {
     let scene = args.scene.unwrap_or_default();
+    let region = args.region.or(args.crop.map(Region::Crop));
     let output = args
         .output
-        .unwrap_or_else(|| PathBuf::from(format!("{}.png", scene_stem(&scene))));
-    ImageFormat::for_path(&output)?;
+        .unwrap_or_else(|| default_output(&scene_stem(&scene), region));
+    // A part file for a region, or for the whole frame when -o names one.
+    let region = match region {
+        Some(r) if !is_part(&output) => anyhow::bail!(
+            "{} writes a part file: -o must end in .part, got {}",
+            if matches!(r, Region::Crop(_)) {
+                "--crop"
+            } else {
+                "--region"
+            },
+            output.display()
+        ),
+        None if is_part(&output) => Some(Region::Frame),
+        r => r,
+    };
+    if region.is_none() {
+        ImageFormat::for_path(&output)?;
+    }
     output::check_writable(&output)?;
     if let Some(report) = &args.report {
         output::check_writable(report)?;
@@ -101,10 +121,26 @@ fn render(args: Args) -> anyhow::Result<RenderOptions> {
             specialize: !args.no_specialize,
             sampler: args.sampler.into(),
         },
+        region,
         output,
         report: args.report,
         stats: args.stats,
         notes: !args.quiet,
+    })
+}
+
+fn is_part(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e == "part")
+}
+
+/// The default output: `<stem>.png`, or a part file `bunny-3of16.part`,
+/// `bunny-crop-0-0-64-64.part`.
+fn default_output(stem: &str, region: Option<Region>) -> PathBuf {
+    PathBuf::from(match region {
+        None => format!("{stem}.png"),
+        Some(Region::Part { index, count }) => format!("{stem}-{index}of{count}.part"),
+        Some(Region::Crop(r)) => format!("{stem}-crop-{}-{}-{}-{}.part", r.x0, r.y0, r.x1, r.y1),
+        Some(Region::Frame) => format!("{stem}.part"),
     })
 }
 

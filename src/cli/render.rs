@@ -1,9 +1,11 @@
 //! Render one scene: load, build, render on the current pool (with a progress bar on a
-//! terminal), write the image, then the report, the statistics and the summary line.
+//! terminal), write the image (or the part file of a region), then the report, the
+//! statistics and the summary line.
 
 use super::options::RenderOptions;
 use super::{report, stats};
-use raytracer::{PacketWidth, Rendered, Renderer};
+use anyhow::Context;
+use raytracer::{PacketWidth, Part, RayCounts, Region, Rendered, Renderer};
 use std::io::IsTerminal;
 use std::time::{Duration, Instant};
 
@@ -24,9 +26,17 @@ pub struct Timings {
 pub struct Run<'a> {
     pub options: &'a RenderOptions,
     pub renderer: &'a Renderer,
-    pub rendered: &'a Rendered,
+    pub counts: RayCounts,
+    /// Pixels with a NaN or infinite channel.
+    pub non_finite: usize,
     pub threads: usize,
     pub timings: Timings,
+}
+
+/// The pixels of a run: the frame, or a region of it for a part file.
+enum Pixels {
+    Frame(Rendered),
+    Part(Part),
 }
 
 /// Render `o` on the current rayon pool of `threads` threads.
@@ -38,24 +48,53 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
     let file = super::scene_file(&o.scene)?;
     let renderer = Renderer::new(&file, &o.scene_options)?;
     let built = Instant::now();
+    // The region's tiles; a crop outside the image is refused here, before the render.
+    let tiles = match o.region {
+        None => renderer.tiles() as u64,
+        Some(region) => {
+            let rects = region
+                .rects(renderer.width(), renderer.height())
+                .with_context(|| match region {
+                    Region::Crop(r) => format!("--crop {r}"),
+                    Region::Part { index, count } => format!("--region {index}/{count}"),
+                    Region::Frame => "the whole frame".into(),
+                })?;
+            raytracer::render::tile_count(&rects)
+        }
+    };
 
-    let bar = o.notes.then(|| progress_bar(&renderer)).flatten();
+    let bar = o.notes.then(|| progress_bar(tiles)).flatten();
     let on_tile = || {
         if let Some(b) = &bar {
             b.inc(1)
         }
     };
-    let rendered = renderer.render_with_progress(&o.settings, &on_tile)?;
+    let pixels = match o.region {
+        None => Pixels::Frame(renderer.render_with_progress(&o.settings, &on_tile)?),
+        Some(region) => {
+            Pixels::Part(renderer.render_part_with_progress(&o.settings, region, &on_tile)?)
+        }
+    };
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
     let rendered_at = Instant::now();
 
-    rendered.film.write(&o.output)?;
+    let (counts, non_finite) = match &pixels {
+        Pixels::Frame(rendered) => {
+            rendered.film.write(&o.output)?;
+            (rendered.counts, rendered.film.non_finite_count())
+        }
+        Pixels::Part(part) => {
+            part.write(&o.output)?;
+            (part.counts(), part.non_finite_count())
+        }
+    };
     let run = Run {
         options: o,
         renderer: &renderer,
-        rendered: &rendered,
+        counts,
+        non_finite,
         threads,
         timings: Timings {
             load: (built - start).saturating_sub(renderer.build_time()),
@@ -78,11 +117,11 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
 }
 
 /// A bar over the tiles, on a terminal only.
-fn progress_bar(renderer: &Renderer) -> Option<indicatif::ProgressBar> {
+fn progress_bar(tiles: u64) -> Option<indicatif::ProgressBar> {
     if !std::io::stderr().is_terminal() {
         return None;
     }
-    let bar = indicatif::ProgressBar::new(renderer.tiles() as u64);
+    let bar = indicatif::ProgressBar::new(tiles);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
             "{spinner} {wide_bar} {percent}% {elapsed}/{duration}",
@@ -94,15 +133,20 @@ fn progress_bar(renderer: &Renderer) -> Option<indicatif::ProgressBar> {
 
 /// The warning for non-finite pixels and the one summary line.
 fn summary(run: &Run) {
-    let (r, film, counts) = (run.renderer, &run.rendered.film, run.rendered.counts);
-    let bad = film.non_finite_count();
-    if bad > 0 {
-        eprintln!("warning: {bad} pixels had a NaN or infinite value");
+    let (r, counts) = (run.renderer, run.counts);
+    if run.non_finite > 0 {
+        eprintln!(
+            "warning: {} pixels had a NaN or infinite value",
+            run.non_finite
+        );
     }
     let render_s = run.timings.render.as_secs_f64();
     eprintln!(
-        "{}: {}x{}, {} spp, {:.3} s render ({:.3} s total), {:.2} M rays, {:.1} Mrays/s -> {}",
+        "{}: {}{}x{}, {} spp, {:.3} s render ({:.3} s total), {:.2} M rays, {:.1} Mrays/s -> {}",
         r.name(),
+        run.options
+            .region
+            .map_or_else(String::new, |region| format!("{region} of ")),
         r.width(),
         r.height(),
         r.spp(),

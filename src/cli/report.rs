@@ -18,6 +18,10 @@ struct Report<'a> {
     specialize: bool,
     seconds: Seconds,
     rays: Rays,
+    /// The region rendered into a part file ("region 3/16", "crop 0,0,64,64", "the whole
+    /// frame"); absent for an image.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    region: Option<String>,
     /// Pixels with a NaN or infinite channel (`Film::non_finite_count`).
     non_finite_pixels: usize,
 }
@@ -82,8 +86,9 @@ pub fn write(path: &Path, run: &Run) -> anyhow::Result<()> {
             write: t.write.as_secs_f64(),
             total: t.start.elapsed().as_secs_f64(),
         },
-        rays: run.rendered.counts.into(),
-        non_finite_pixels: run.rendered.film.non_finite_count(),
+        rays: run.counts.into(),
+        region: run.options.region.map(|r| r.to_string()),
+        non_finite_pixels: run.non_finite,
     };
     let json = serde_json::to_string_pretty(&report)?;
     output::write_atomically(path, |out| {

@@ -5,7 +5,7 @@ use super::render::Run;
 
 /// Print the statistics of `run` on stderr, one `stats:` line each.
 pub fn print(run: &Run) {
-    let (scene, counts) = (run.renderer.scene(), run.rendered.counts);
+    let (scene, counts) = (run.renderer.scene(), run.counts);
     let settings = &run.options.settings;
     let t = counts.traversal;
     let per_ray = |x: u64| x as f64 / counts.total().max(1) as f64;
@@ -60,8 +60,5 @@ pub fn print(run: &Run) {
             pct(nodes),
         );
     }
-    eprintln!(
-        "stats: non-finite pixels: {}",
-        run.rendered.film.non_finite_count()
-    );
+    eprintln!("stats: non-finite pixels: {}", run.non_finite);
 }
