@@ -19,16 +19,17 @@ fn main() -> ExitCode {
 
 fn run() -> anyhow::Result<ExitCode> {
     let (options, threads) = options::from_args(cli::args::Args::parse())?;
-    if let Options::List = options {
-        cli::list()?;
-        return Ok(ExitCode::SUCCESS);
+    // The commands that render run on one pool of worker threads.
+    let on_pool = |run: &(dyn Fn(usize) -> anyhow::Result<()> + Sync)| {
+        let (pool, threads) = cli::thread_pool(threads)?;
+        pool.install(|| run(threads))
+    };
+    match &options {
+        Options::List => cli::list()?,
+        Options::Merge(o) => cli::merge::run(o)?,
+        Options::Render(o) => on_pool(&|threads| cli::render::run(o, threads))?,
+        Options::Reference(o) => on_pool(&|threads| cli::sweep::reference(o, threads))?,
+        Options::Sweep(o) => on_pool(&|threads| cli::sweep::sweep(o, threads))?,
     }
-    let (pool, threads) = cli::thread_pool(threads)?;
-    pool.install(|| match &options {
-        Options::List => Ok(()),
-        Options::Render(o) => cli::render::run(o, threads),
-        Options::Reference(o) => cli::sweep::reference(o, threads),
-        Options::Sweep(o) => cli::sweep::sweep(o, threads),
-    })?;
     Ok(ExitCode::SUCCESS)
 }

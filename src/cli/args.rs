@@ -26,7 +26,7 @@ const VERSION: &str = if cfg!(target_feature = "avx2") {
     subcommand_negates_reqs = true
 )]
 pub struct Args {
-    /// Error against time: `reference` and `sweep` (see `raytracer sweep --help`).
+    /// Error against time (`reference`, `sweep`); putting part files together (`merge`).
     #[command(subcommand)]
     pub command: Option<Command>,
 
@@ -108,7 +108,7 @@ pub struct Args {
     pub crop: Option<Rect>,
 }
 
-/// The error-against-time commands.
+/// The subcommands: error against time, and merging part files.
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Render a high-spp reference image (EXR, linear f32) for `sweep`.
@@ -116,6 +116,23 @@ pub enum Command {
     /// Render a scene at spp = 1, 2, 4, …, --spp-max for each sampler, time each render and
     /// measure its error against the reference; write a CSV and an SVG chart.
     Sweep(SweepArgs),
+    /// Put part files (made with --region or --crop) together into the frame, after
+    /// checking that they come from one program, scene and settings and that they hold
+    /// every pixel exactly once. The frame has the bits of a one-process render.
+    Merge(MergeArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct MergeArgs {
+    /// The part files.
+    #[arg(required = true)]
+    pub parts: Vec<PathBuf>,
+    /// Output image: .exr (linear f32, the bits of a one-process render), .png or .ppm.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// No summary line.
+    #[arg(short, long)]
+    pub quiet: bool,
 }
 
 #[derive(Debug, clap::Args)]

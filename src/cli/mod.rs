@@ -1,8 +1,9 @@
 //! The command line, in the binary only (the library knows nothing of it): `args` (clap's
-//! flags) → `options` (validated, defaults filled in) → `render` or `sweep` (the run),
-//! with the `report` (JSON) and `stats` printers apart.
+//! flags) → `options` (validated, defaults filled in) → `render`, `merge` or `sweep` (the
+//! run), with the `report` (JSON) and `stats` printers apart.
 
 pub mod args;
+pub mod merge;
 pub mod options;
 pub mod render;
 pub mod report;

@@ -15,6 +15,7 @@ pub enum Options {
     Render(RenderOptions),
     Reference(ReferenceOptions),
     Sweep(SweepOptions),
+    Merge(MergeOptions),
 }
 
 /// Render one scene to an image.
@@ -61,6 +62,15 @@ pub struct SweepOptions {
     pub reference_spp: u32,
 }
 
+/// `raytracer merge`.
+#[derive(Debug)]
+pub struct MergeOptions {
+    pub parts: Vec<PathBuf>,
+    pub output: PathBuf,
+    /// The summary line (off with `--quiet`).
+    pub notes: bool,
+}
+
 /// The options and the worker threads they ask for (`None`: all cores).
 pub fn from_args(args: Args) -> anyhow::Result<(Options, Option<u32>)> {
     match args.command {
@@ -72,6 +82,7 @@ pub fn from_args(args: Args) -> anyhow::Result<(Options, Option<u32>)> {
             let threads = s.threads;
             Ok((Options::Sweep(sweep(s)), threads))
         }
+        Some(args::Command::Merge(m)) => Ok((Options::Merge(merge(m)?), None)),
         None if args.list => Ok((Options::List, None)),
         None => {
             let threads = args.threads;
@@ -141,6 +152,16 @@ fn default_output(stem: &str, region: Option<Region>) -> PathBuf {
         Some(Region::Part { index, count }) => format!("{stem}-{index}of{count}.part"),
         Some(Region::Crop(r)) => format!("{stem}-crop-{}-{}-{}-{}.part", r.x0, r.y0, r.x1, r.y1),
         Some(Region::Frame) => format!("{stem}.part"),
+    })
+}
+
+fn merge(m: args::MergeArgs) -> anyhow::Result<MergeOptions> {
+    ImageFormat::for_path(&m.output)?;
+    output::check_writable(&m.output)?;
+    Ok(MergeOptions {
+        parts: m.parts,
+        output: m.output,
+        notes: !m.quiet,
     })
 }
 

@@ -1,0 +1,25 @@
+//! `raytracer merge PART... -o OUT`: check the part files, put them together, write the
+//! frame and one summary line.
+
+use super::options::MergeOptions;
+use std::time::Instant;
+
+/// Merge `o.parts` into `o.output`; nothing is written if any part is refused.
+pub fn run(o: &MergeOptions) -> anyhow::Result<()> {
+    let start = Instant::now();
+    let merged = raytracer::merge_parts(&o.parts)?;
+    merged.film.write(&o.output)?;
+    if o.notes {
+        eprintln!(
+            "merged {} parts of {} ({}x{}, {} spp) in {:.3} s -> {}",
+            o.parts.len(),
+            merged.scene,
+            merged.film.width,
+            merged.film.height,
+            merged.spp,
+            start.elapsed().as_secs_f64(),
+            o.output.display()
+        );
+    }
+    Ok(())
+}
