@@ -70,9 +70,12 @@ fn read(path: impl AsRef<Path>) -> Vec<u8> {
 // ---------------------------------------------------------------------------------------
 // The merged frame is the one-process frame.
 
-/// The defaults (Sobol, the widest packets), and the original program's sampling on the
-/// scalar tracer.
-const CONFIGS: [&[&str]; 2] = [&[], &["--sampler", "independent", "--packet-width", "1"]];
+/// 8-wide packets with the default sampler (Sobol), and the scalar tracer with the
+/// original program's sampling.
+const CONFIGS: [&[&str]; 2] = [
+    &["--packet-width", "8"],
+    &["--packet-width", "1", "--sampler", "independent"],
+];
 
 #[test]
 fn merge_is_the_one_process_render_for_every_split_and_width() {
