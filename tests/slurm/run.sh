@@ -92,12 +92,27 @@ munged --key-file="$tmp/munge/munge.key" --socket="$tmp/munge/munge.socket.2" \
   --pid-file="$tmp/munge/munged.pid" --log-file="$tmp/munge/munged.log" \
   --seed-file="$tmp/munge/munged.seed" --force --origin=127.0.0.1
 
-# slurm.conf: one node, this host, at 127.0.0.1; no cgroups, no accounting.
+# slurm.conf: one node, this host, at 127.0.0.1; no cgroups, no accounting. The two
+# daemons listen on ports no one else uses (not Slurm's 6817 and 6818), so another
+# cluster on the machine, or another run of this test, is no matter.
 host=$(hostname -s)
+used=$(ss -Htan 2>/dev/null | awk '{ sub(/.*:/, "", $4); print $4 }' || true)
+free_port() {
+  local port
+  for ((port = $1; port < $1 + 1000; port++)); do
+    grep -qx "$port" <<<"$used" || { echo "$port"; return; }
+  done
+  die "no free port from $1"
+}
+ctld_port=$(free_port $((20000 + RANDOM % 20000)))
+used+=$'\n'$ctld_port
+slurmd_port=$(free_port $((ctld_port + 1)))
 node=$(slurmd -C | head -n 1 | sed 's/^NodeName=[^ ]* //')
 cat >"$tmp/slurm.conf" <<CONF
 ClusterName=raytracer-test
 SlurmctldHost=$host(127.0.0.1)
+SlurmctldPort=$ctld_port
+SlurmdPort=$slurmd_port
 SlurmUser=root
 SlurmdUser=root
 AuthType=auth/munge
