@@ -7,6 +7,7 @@
 
 pub mod builtin;
 pub mod desc;
+pub mod limits;
 pub mod mesh;
 
 use crate::camera::{image_height, Camera};
@@ -19,6 +20,7 @@ use crate::lanes::{Lane, V3};
 use crate::material::{Material, Phong};
 use desc::{AspectDesc, MaterialDesc, ObjectDesc, SceneDesc};
 use glam::{DVec3, Vec3};
+use limits::{SampleBound, MAX_CAMERA_COORDINATE};
 use std::borrow::Cow;
 use std::collections::HashMap;
 use std::ops::Range;
@@ -99,9 +101,11 @@ impl SceneSource {
         }
     }
 
-    /// Parse the TOML into a description; syntax errors and unknown keys name line and column.
+    /// Parse the TOML into a description; syntax errors and unknown keys name line and
+    /// column. A file that sets nothing (empty, blank or only comments) is an error: it
+    /// is more likely a wrong or truncated file than a wish for a black image.
     pub fn parse(&self) -> Result<SceneDesc> {
-        toml::from_str(&self.text).map_err(|e| {
+        let desc: SceneDesc = toml::from_str(&self.text).map_err(|e| {
             let (line, column) = e.span().map_or((0, 0), |s| {
                 let at = unknown_key_offset(&self.text, e.message(), s.clone());
                 line_col(&self.text, at.unwrap_or(s.start))
@@ -119,7 +123,14 @@ impl SceneSource {
                 column,
                 message: message.join(", "),
             }
-        })
+        })?;
+        if desc.sets_nothing() {
+            return Err(self.error_at(
+                0,
+                "the scene file is empty: it sets no camera, materials or objects",
+            ));
+        }
+        Ok(desc)
     }
 
     fn error_at(&self, offset: usize, message: impl Into<String>) -> Error {
@@ -378,31 +389,41 @@ impl Scene {
     }
 }
 
-fn finite3(v: [f32; 3]) -> bool {
-    v.iter().all(|x| x.is_finite())
-}
-
 /// Check values and build the render-ready scene.
 pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> Result<Scene> {
     let err = |offset: usize, msg: String| source.error_at(offset, msg);
 
-    // Camera.
+    // Camera. The file's values are checked even where a flag replaces them.
     let default_camera = desc::CameraDesc::default();
     let (cam, cam_at) = match &desc.camera {
         Some(c) => (c.get_ref(), c.span().start),
         None => (&default_camera, 0),
     };
-    let width = match overrides.width {
-        Some(w) => w as i64,
-        None => cam.width,
+    let in_range = |key: &str, v: i64, max: i64| -> Result<i64> {
+        if (1..=max).contains(&v) {
+            Ok(v)
+        } else {
+            Err(err(cam_at, format!("{key} must be 1 to {max}, got {v}")))
+        }
     };
-    if !(1..=65_536).contains(&width) {
-        return Err(err(
-            cam_at,
-            format!("camera width must be 1 to 65536, got {width}"),
-        ));
-    }
-    let width = width as u32;
+    in_range("camera width", cam.width, 65_536)?;
+    in_range("samples_per_pixel", cam.samples_per_pixel, 1 << 20)?;
+    in_range("max_depth", cam.max_depth, 10_000)?;
+    let width = in_range(
+        "camera width",
+        overrides.width.map_or(cam.width, i64::from),
+        65_536,
+    )? as u32;
+    let spp = in_range(
+        "samples_per_pixel",
+        overrides.spp.map_or(cam.samples_per_pixel, i64::from),
+        1 << 20,
+    )? as u32;
+    let max_depth = in_range(
+        "max_depth",
+        overrides.max_depth.map_or(cam.max_depth, i64::from),
+        10_000,
+    )? as u32;
     let aspect = match &cam.aspect_ratio {
         AspectDesc::Ratio(r) => *r,
         AspectDesc::Text(t) => parse_aspect(t).ok_or_else(|| {
@@ -435,26 +456,6 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
         ));
     }
     let height = height as u32;
-    let spp = match overrides.spp {
-        Some(s) => s as i64,
-        None => cam.samples_per_pixel,
-    };
-    if !(1..=1 << 20).contains(&spp) {
-        return Err(err(
-            cam_at,
-            format!("samples_per_pixel must be 1 to 1048576, got {spp}"),
-        ));
-    }
-    let max_depth = match overrides.max_depth {
-        Some(d) => d as i64,
-        None => cam.max_depth,
-    };
-    if !(1..=10_000).contains(&max_depth) {
-        return Err(err(
-            cam_at,
-            format!("max_depth must be 1 to 10000, got {max_depth}"),
-        ));
-    }
     if !(cam.vfov.is_finite() && cam.vfov > 0.0 && cam.vfov < 180.0) {
         return Err(err(
             cam_at,
@@ -466,54 +467,77 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
         ("look_at", cam.look_at),
         ("up", cam.up),
     ] {
-        if !v.iter().all(|x| x.is_finite()) {
+        if !v.0.iter().all(|x| x.is_finite()) {
             return Err(err(
                 cam_at,
-                format!("camera {key} must be finite, got {v:?}"),
+                format!("camera {key} must be finite, got {:?}", v.0),
             ));
         }
+    }
+    if let Some(x) = cam
+        .look_from
+        .0
+        .iter()
+        .find(|x| x.abs() > MAX_CAMERA_COORDINATE)
+    {
+        return Err(err(
+            cam_at,
+            format!(
+                "camera look_from {:?}: {x:e} is too large: the camera must lie within ±{MAX_CAMERA_COORDINATE:e} on every axis (its rays are made in f32; move the scene nearer the origin)",
+                cam.look_from.0
+            ),
+        ));
     }
     let camera = Camera::new(
         width,
         height,
         cam.vfov,
-        DVec3::from(cam.look_from),
-        DVec3::from(cam.look_at),
-        DVec3::from(cam.up),
+        DVec3::from(cam.look_from.0),
+        DVec3::from(cam.look_at.0),
+        DVec3::from(cam.up.0),
     )
     .ok_or_else(|| {
         err(cam_at, "camera look_from and look_at must differ, and up must not be parallel to the view direction".into())
     })?;
+    let extent = limits::camera_extent(&camera);
+    if extent.is_nan() || extent > MAX_CAMERA_COORDINATE {
+        return Err(err(
+            cam_at,
+            format!(
+                "camera image plane reaches {extent:.3e}: the camera and its image plane (one unit in front of look_from, as wide as vfov makes it) must lie within ±{MAX_CAMERA_COORDINATE:e} on every axis (its rays are made in f32; narrow vfov)"
+            ),
+        ));
+    }
 
     // Background and ambient.
-    let colour = |c: &Option<toml::Spanned<[f32; 3]>>, key: &str| -> Result<Vec3> {
+    let mut bound = SampleBound::default();
+    let colour = |c: &Option<toml::Spanned<desc::V3>>, key: &str| -> Result<(Vec3, usize)> {
         match c {
-            None => Ok(Vec3::ZERO),
-            Some(s) => {
-                let v = *s.get_ref();
-                if finite3(v) && v.iter().all(|&x| x >= 0.0) {
-                    Ok(Vec3::from(v))
-                } else {
-                    Err(err(
-                        s.span().start,
-                        format!("{key} must be finite and non-negative, got {v:?}"),
-                    ))
-                }
-            }
+            None => Ok((Vec3::ZERO, 0)),
+            Some(s) => limits::colour(key, *s.get_ref())
+                .map(|c| (c, s.span().start))
+                .map_err(|msg| err(s.span().start, msg)),
         }
     };
-    let background = colour(&desc.background, "background")?;
-    let ambient = colour(&desc.ambient, "ambient")?;
+    let (background, background_at) = colour(&desc.background, "background")?;
+    let (ambient, _) = colour(&desc.ambient, "ambient")?;
+    bound.end(
+        background.max_element() as f64,
+        background_at,
+        format!("background {}", show(background)),
+    );
 
     // Materials.
     let mut materials = Vec::new();
     let mut material_index = HashMap::new();
+    let mut material_at = Vec::new();
     for (name, m) in &desc.materials {
         let at = m.span().start;
         let material = compile_material(m.get_ref())
             .map_err(|msg| err(at, format!("material '{name}': {msg}")))?;
         material_index.insert(name.as_str(), materials.len() as u32);
         materials.push(material);
+        material_at.push((name.as_str(), at));
     }
 
     // Objects.
@@ -552,35 +576,32 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
         };
         let shape = match o {
             ObjectDesc::Sphere { center, radius, .. } => {
-                if !finite3(*center) || !radius.is_finite() {
-                    return Err(oerr("center and radius must be finite".into()));
-                }
-                if *radius <= 0.0 {
-                    return Err(oerr(format!("radius must be positive, got {radius}")));
-                }
-                spheres.push(Vec3::from(*center), *radius, id(), object);
-                bounds = bounds.union(spheres.bounds(spheres.len() - 1));
-                LightShape::Point {
-                    center: Vec3::from(*center),
-                    radius: *radius,
-                }
+                let center = limits::point("center", *center).map_err(oerr)?;
+                let radius = limits::positive("radius", *radius).map_err(oerr)?;
+                spheres.push(center, radius, id(), object);
+                let b = spheres.bounds(spheres.len() - 1);
+                limits::derived_points("center ± radius", &[b.min, b.max]).map_err(oerr)?;
+                bounds = bounds.union(b);
+                LightShape::Point { center, radius }
             }
             ObjectDesc::Quad { corner, u, v, .. } => {
-                if !(finite3(*corner) && finite3(*u) && finite3(*v)) {
-                    return Err(oerr("corner, u and v must be finite".into()));
-                }
-                let q = Quad::new(Vec3::from(*corner), Vec3::from(*u), Vec3::from(*v)).ok_or_else(
-                    || oerr("zero area: u and v must be non-zero and not parallel".into()),
-                )?;
+                let corner = limits::point("corner", *corner).map_err(oerr)?;
+                let u = limits::point("u", *u).map_err(oerr)?;
+                let v = limits::point("v", *v).map_err(oerr)?;
+                let q = Quad::new(corner, u, v).ok_or_else(|| {
+                    oerr("zero area: u and v must be non-zero and not parallel".into())
+                })?;
+                limits::derived_points("corner + u + v", &q.vertices).map_err(oerr)?;
                 quads.push(&q, id(), object);
                 bounds = bounds.union(q.bounds());
                 LightShape::Quads(vec![q])
             }
             ObjectDesc::Triangle { a, b, c, .. } => {
-                if !(finite3(*a) && finite3(*b) && finite3(*c)) {
-                    return Err(oerr("vertices must be finite".into()));
-                }
-                let tri = [Vec3::from(*a), Vec3::from(*b), Vec3::from(*c)];
+                let tri = [
+                    limits::point("a", *a).map_err(oerr)?,
+                    limits::point("b", *b).map_err(oerr)?,
+                    limits::point("c", *c).map_err(oerr)?,
+                ];
                 if !is_proper_triangle(tri) {
                     return Err(oerr("zero area: the vertices are collinear".into()));
                 }
@@ -588,24 +609,20 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
                 bounds = bounds.union(Aabb::from_points(&tri));
                 LightShape::Triangles(vec![tri])
             }
-            ObjectDesc::Box {
-                corners: [p, q], ..
-            } => {
-                if !(finite3(*p) && finite3(*q)) {
-                    return Err(oerr("corners must be finite".into()));
-                }
-                let (p, q) = (Vec3::from(*p), Vec3::from(*q));
+            ObjectDesc::Box { corners, .. } => {
+                let [p, q] = corners[..] else {
+                    return Err(oerr(format!(
+                        "corners must be two points, got {}",
+                        corners.len()
+                    )));
+                };
+                let p = limits::point("corners", p).map_err(oerr)?;
+                let q = limits::point("corners", q).map_err(oerr)?;
                 let (min, max) = (p.min(q), p.max(q));
                 if !(min.cmplt(max).all()) {
                     return Err(oerr("the two corners must differ on every axis".into()));
                 }
                 let faces = box_faces(min, max);
-                // A face is dropped when its edge (max − min) overflows to infinity.
-                if faces.len() < 6 {
-                    return Err(oerr(
-                        "the box is too large: max − min overflows f32 on some axis".into(),
-                    ));
-                }
                 for f in &faces {
                     quads.push(f, id(), object);
                 }
@@ -649,6 +666,58 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
         return Err(err(0, "too many primitives".into()));
     }
 
+    // The largest value a sample can take, against f32's range.
+    for light in &lights {
+        // In f64: color · intensity may overflow f32 (refused below).
+        if let Material::Light { color, intensity } =
+            materials[object_material[light.object as usize] as usize]
+        {
+            bound.light(
+                color.max_element() as f64 * intensity as f64,
+                light.samples(),
+            );
+        }
+    }
+    for (material, (name, at)) in materials.iter().zip(&material_at) {
+        let named = |what: &str| format!("{what} of material '{name}'");
+        match *material {
+            Material::Phong(p) | Material::PhongMirror { phong: p, .. } => bound.phong(
+                ambient.max_element() as f64,
+                p.albedo.max_element() as f64,
+                p.shininess as f64,
+                p.ka as f64,
+                p.kd as f64,
+                p.ks as f64,
+                *at,
+                &format!(
+                    "Phong shading of material '{name}' (the lights' radiance times their samples sums to {:.3e})",
+                    bound.light_sum
+                ),
+            ),
+            Material::Diffuse { albedo } | Material::Metal { albedo, .. } => {
+                let a = albedo.max_element() as f64;
+                bound.end(a, *at, named(&format!("albedo {}", show(albedo))));
+                bound.path_albedo(a, *at, &named(&format!("albedo {}", show(albedo))));
+            }
+            Material::Dielectric { .. } => bound.end(1.0, *at, named("white")),
+            Material::Light { color, intensity } => {
+                bound.end(
+                    color.max_element() as f64,
+                    *at,
+                    named(&format!("color {}", show(color))),
+                );
+                bound.end(
+                    color.max_element() as f64 * intensity as f64,
+                    *at,
+                    named("color · intensity"),
+                );
+            }
+        }
+    }
+    bound
+        .check(spp, max_depth)
+        .map_err(|(at, msg)| err(at, msg))?;
+
     let features = Features {
         has_spheres: !spheres.is_empty(),
         has_quads: !quads.is_empty(),
@@ -665,8 +734,8 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
         name: source.name.clone(),
         description: desc.description.clone(),
         camera,
-        spp: spp as u32,
-        max_depth: max_depth as u32,
+        spp,
+        max_depth,
         background,
         ambient,
         spheres,
@@ -679,6 +748,12 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
         bounds,
         degenerate_triangles,
     })
+}
+
+/// A colour as the file would write it (`Debug` writes 3e38, where `Display` writes
+/// 39 digits).
+fn show(c: Vec3) -> String {
+    format!("[{:?}, {:?}, {:?}]", c.x, c.y, c.z)
 }
 
 fn parse_aspect_parts(t: &str) -> Option<(u64, u64)> {
@@ -714,27 +789,7 @@ fn read_mesh(source: &SceneSource, path: &str) -> Result<(String, Cow<'static, s
 }
 
 fn compile_material(m: &MaterialDesc) -> Result<Material, String> {
-    let colour = |key: &str, c: [f32; 3]| -> Result<Vec3, String> {
-        if finite3(c) && c.iter().all(|&x| x >= 0.0) {
-            Ok(Vec3::from(c))
-        } else {
-            Err(format!("{key} must be finite and non-negative, got {c:?}"))
-        }
-    };
-    let non_negative = |key: &str, x: f32| -> Result<f32, String> {
-        if x.is_finite() && x >= 0.0 {
-            Ok(x)
-        } else {
-            Err(format!("{key} must be finite and non-negative, got {x}"))
-        }
-    };
-    let positive = |key: &str, x: f32| -> Result<f32, String> {
-        if x.is_finite() && x > 0.0 {
-            Ok(x)
-        } else {
-            Err(format!("{key} must be finite and positive, got {x}"))
-        }
-    };
+    use limits::{colour, non_negative, positive};
     let phong = |albedo, shininess, ka, kd, ks| -> Result<Phong, String> {
         Ok(Phong {
             albedo: colour("albedo", albedo)?,
