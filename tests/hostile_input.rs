@@ -368,3 +368,101 @@ fn a_scene_file_that_sets_nothing_is_an_error() {
         refused_with(text, &["scene.toml:1:1:", "empty"]);
     }
 }
+
+// ---------------------------------------------------------------------------------------
+// Messages with a place.
+
+/// A scene whose one object is the mesh `m.obj`.
+fn mesh_scene() -> String {
+    "[camera]\nwidth = 8\nlook_from = [0.2, 0.2, 1]\nlook_at = [0.2, 0.2, -2]\n\
+     [materials.m]\ntype = \"phong\"\nalbedo = [1, 1, 1]\nshininess = 1\n\
+     [[objects]]\ntype = \"mesh\"\npath = \"m.obj\"\nmaterial = \"m\"\n"
+        .to_string()
+}
+
+fn obj_refused(obj: &str, expected: &[&str]) {
+    let message = refused(
+        &mesh_scene(),
+        &[("m.obj", obj.as_bytes())],
+        Overrides::default(),
+    );
+    check_message(&message, expected);
+}
+
+#[test]
+fn obj_problems_name_their_line() {
+    let head = "v 0 0 -2\nv 1 0 -2\nv 0 1 -2\n";
+    obj_refused(
+        &format!("{head}f 1 2 3/1/1/1\n"),
+        &["m.obj:4:", "3/1/1/1", "v/vt/vn"],
+    );
+    obj_refused(
+        &format!("{head}f 1 2 /1\n"),
+        &["m.obj:4:", "no vertex index"],
+    );
+    // Indices at the ends of isize: tobj's relative-index arithmetic overflows there.
+    obj_refused(
+        &format!("{head}f 1 2 -9223372036854775808\n"),
+        &["m.obj:4:", "out of range"],
+    );
+    obj_refused(
+        &format!("{head}vt 0 0\nf 1/1 2/-9223372036854775808 3/1\n"),
+        &["m.obj:5:", "texture coordinate", "out of range"],
+    );
+    obj_refused(
+        &format!("{head}f 1//4 2//1 3//1\n"),
+        &["m.obj:4:", "normal index 4"],
+    );
+    obj_refused(
+        &format!("{head}f 1 2 x\n"),
+        &["m.obj:4:", "'x' is not an index"],
+    );
+    obj_refused(&format!("{head}f 1 2\n"), &["m.obj:4:", "three vertices"]);
+    // A vertex beyond the coordinate limit, or made infinite by its w.
+    obj_refused(
+        "v 0 0 -2\nv 2e10 0 -2\nv 0 1 -2\nf 1 2 3\n",
+        &["m.obj:2:", "2e10", "too large"],
+    );
+    obj_refused(
+        "v 0 0 -2\nv 1 0 -2\nv 0 1 -2 1e-40\nf 1 2 3\n",
+        &["m.obj:3:", "finite"],
+    );
+    obj_refused(
+        "v 0 0 -2\nv 1 0 -2 0\nv 0 1 -2\nf 1 2 3\n",
+        &["m.obj:2:", "w is zero"],
+    );
+    // The line of a non-finite vertex, not of the position it takes in tobj's mesh
+    // (positions there come in the order faces first use them).
+    obj_refused(
+        "v 0 0 -2\nv 1 nan -2\nv 0 1 -2\nf 2 3 1\n",
+        &["m.obj:2:", "finite"],
+    );
+    // A line tobj rejects that the check above does not look at (a colour of two numbers).
+    obj_refused(
+        &format!("{head}# comment\nv 1 1 -2 0.5 0.5\nf 1 2 3\n"),
+        &["m.obj:5:", "malformed OBJ"],
+    );
+}
+
+/// Old Mac OS files end lines with a lone CR; tobj splits at LF only and would read one
+/// line. They load as their LF twins do, and their errors name the right line.
+#[test]
+fn cr_line_ends_are_line_ends() {
+    let lf = "# a quad\nv 0 0 -2\nv 1 0 -2\nv 1 1 -2\nv 0 1 -2\nf 1 2 3 4\n";
+    let cr = lf.replace('\n', "\r");
+    let crlf = lf.replace('\n', "\r\n");
+    let triangles = |obj: &str| {
+        let scene = loads(&mesh_scene(), &[("m.obj", obj.as_bytes())]);
+        (0..scene.triangles.len())
+            .map(|i| scene.triangles.vertices(i))
+            .collect::<Vec<_>>()
+    };
+    let want = triangles(lf);
+    assert_eq!(want.len(), 2);
+    assert_eq!(triangles(&cr), want);
+    assert_eq!(triangles(&crlf), want);
+    obj_refused(
+        &cr.replace("f 1 2 3 4", "f 1 2 9"),
+        &["m.obj:6:", "index 9 out of range"],
+    );
+}
