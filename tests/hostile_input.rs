@@ -372,6 +372,23 @@ fn a_scene_file_that_sets_nothing_is_an_error() {
 // ---------------------------------------------------------------------------------------
 // Messages with a place.
 
+#[test]
+fn invalid_utf8_is_placed() {
+    let message = refused_with_bytes(b"background = [0.1, 0.1, 0.1]\ndescription = \"caf\xe9\"\n");
+    check_message(&message, &["scene.toml:2:19:", "UTF-8", "0xE9"]);
+    let obj = b"v 0 0 -2\nv 1 0 -2\n# cr\xe9\xe9 par\nv 0 1 -2\nf 1 2 3\n";
+    let message = refused(&mesh_scene(), &[("m.obj", obj)], Overrides::default());
+    check_message(&message, &["m.obj:3:", "column 5", "UTF-8"]);
+}
+
+fn refused_with_bytes(bytes: &[u8]) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, bytes).unwrap();
+    let e = Scene::load(path.to_str().unwrap(), Overrides::default()).unwrap_err();
+    chain(&e).replace(&format!("{}/", dir.path().display()), "")
+}
+
 /// A scene whose one object is the mesh `m.obj`.
 fn mesh_scene() -> String {
     "[camera]\nwidth = 8\nlook_from = [0.2, 0.2, 1]\nlook_at = [0.2, 0.2, -2]\n\
@@ -465,4 +482,43 @@ fn cr_line_ends_are_line_ends() {
         &cr.replace("f 1 2 3 4", "f 1 2 9"),
         &["m.obj:6:", "index 9 out of range"],
     );
+}
+
+// ---------------------------------------------------------------------------------------
+// Inputs that are not regular files, or too large.
+
+#[test]
+fn devices_directories_and_oversized_files_are_refused_before_reading() {
+    #[cfg(unix)]
+    {
+        let e = Scene::load("/dev/zero", Overrides::default()).unwrap_err();
+        check_message(
+            &chain(&e),
+            &["/dev/zero", "not a regular file", "character device"],
+        );
+        let dir = tempfile::tempdir().unwrap();
+        std::os::unix::fs::symlink("/dev/zero", dir.path().join("zero.obj")).unwrap();
+        let path = dir.path().join("scene.toml");
+        std::fs::write(&path, mesh_scene().replace("m.obj", "zero.obj")).unwrap();
+        let e = Scene::load(path.to_str().unwrap(), Overrides::default()).unwrap_err();
+        check_message(
+            &chain(&e),
+            &[
+                "scene.toml:9:1:",
+                "object 1 (mesh)",
+                "zero.obj",
+                "not a regular file",
+            ],
+        );
+    }
+    // A sparse file one byte over the limit: refused by its size, never read.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("big.toml");
+    let file = std::fs::File::create(&path).unwrap();
+    let limit = raytracer::scene::input::MAX_SCENE_BYTES;
+    file.set_len(limit + 1).unwrap();
+    let e = Scene::load(path.to_str().unwrap(), Overrides::default()).unwrap_err();
+    check_message(&chain(&e), &[&format!("{} bytes", limit + 1), "limit"]);
+    let e = Scene::load(dir.path().to_str().unwrap(), Overrides::default()).unwrap_err();
+    check_message(&chain(&e), &["directory"]);
 }

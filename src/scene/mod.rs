@@ -7,6 +7,7 @@
 
 pub mod builtin;
 pub mod desc;
+pub mod input;
 pub mod limits;
 pub mod mesh;
 
@@ -20,6 +21,7 @@ use crate::lanes::{Lane, V3};
 use crate::material::{Material, Phong};
 use desc::{AspectDesc, MaterialDesc, ObjectDesc, SceneDesc};
 use glam::{DVec3, Vec3};
+use input::ReadError;
 use limits::{SampleBound, MAX_CAMERA_COORDINATE};
 use std::borrow::Cow;
 use std::collections::HashMap;
@@ -74,13 +76,23 @@ impl SceneSource {
         })
     }
 
-    /// A scene file; relative mesh paths start from its directory.
+    /// A scene file; relative mesh paths start from its directory. The file must be a
+    /// regular file under the scene size limit, in UTF-8.
     pub fn read(path: &Path) -> Result<Self> {
         let display = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: display.clone(),
-            source,
-        })?;
+        let text =
+            input::read_text(path, input::MAX_SCENE_BYTES, "scene file").map_err(|e| match e {
+                ReadError::Io(source) => Error::Io {
+                    path: display.clone(),
+                    source,
+                },
+                ReadError::Utf8 { line, column, byte } => Error::Scene {
+                    path: display.clone(),
+                    line,
+                    column,
+                    message: ReadError::utf8_message(byte),
+                },
+            })?;
         Ok(Self {
             display,
             name: path
@@ -779,10 +791,18 @@ fn read_mesh(source: &SceneSource, path: &str) -> Result<(String, Cow<'static, s
         Some(dir) => {
             let full = dir.join(path);
             let display = full.display().to_string();
-            let text = std::fs::read_to_string(&full).map_err(|source| Error::Io {
-                path: display.clone(),
-                source,
-            })?;
+            let text =
+                input::read_text(&full, input::MAX_MESH_BYTES, "mesh").map_err(|e| match e {
+                    ReadError::Io(source) => Error::Io {
+                        path: display.clone(),
+                        source,
+                    },
+                    ReadError::Utf8 { line, column, byte } => Error::Obj {
+                        path: display.clone(),
+                        line,
+                        message: format!("column {column}: {}", ReadError::utf8_message(byte)),
+                    },
+                })?;
             Ok((display, Cow::Owned(text)))
         }
     }
