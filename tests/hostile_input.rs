@@ -13,6 +13,7 @@ mod support;
 use glam::Vec3;
 use raytracer::accel::build::{build, BuildTree, NodeId, PrimRef};
 use raytracer::accel::{Accel, AccelKind};
+use raytracer::budget::{self, Budget, MemoryEstimate};
 use raytracer::geometry::{Aabb, PrimKind};
 use raytracer::render::render;
 use raytracer::{PacketWidth, RenderSettings};
@@ -521,4 +522,102 @@ fn devices_directories_and_oversized_files_are_refused_before_reading() {
     check_message(&chain(&e), &[&format!("{} bytes", limit + 1), "limit"]);
     let e = Scene::load(dir.path().to_str().unwrap(), Overrides::default()).unwrap_err();
     check_message(&chain(&e), &["directory"]);
+}
+
+// ---------------------------------------------------------------------------------------
+// The memory budget.
+
+#[test]
+fn an_image_over_the_budget_is_refused_with_its_estimate() {
+    let text = "background = [0.5, 0.5, 0.5]\n[camera]\nwidth = 65536\naspect_ratio = \"16:1\"\n";
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, text).unwrap();
+    let cap = Budget::Cap(3584 << 20);
+    let e = Scene::load_within(path.to_str().unwrap(), Overrides::default(), cap).unwrap_err();
+    check_message(
+        &chain(&e),
+        &[
+            "a 65536x4096 image",
+            "about 6.0 GiB",
+            "the limit is 3.5 GiB",
+        ],
+    );
+    // 24 bytes a pixel: the same scene at 8192x512 fits 3.5 GiB.
+    let flags = Overrides {
+        width: Some(8192),
+        ..Overrides::default()
+    };
+    let scene = Scene::load_within(path.to_str().unwrap(), flags, cap).unwrap();
+    let estimate = MemoryEstimate::of_scene(&scene, true, false);
+    assert_eq!(estimate.image, 8192 * 512 * budget::RENDER_BYTES_PER_PIXEL);
+}
+
+/// `subdivide = 6` multiplies a mesh by 4096: checked after the OBJ is read and before
+/// the subdivision is made. The built-in bunny (4 968 triangles) under a 1 GiB cap, and
+/// a 1 000 000-triangle OBJ under the machine's free memory (4.1 billion triangles,
+/// about 600 GiB: an attempt would abort, not fail this test).
+#[test]
+fn a_subdivided_mesh_over_the_budget_is_refused_before_it_is_made() {
+    let bunny = builtin::scene("bunny").unwrap().replace(
+        "path = \"../assets/bunny.obj\"",
+        "path = \"../assets/bunny.obj\"\nsubdivide = 6",
+    );
+    let source = raytracer::scene::SceneSource {
+        display: "bunny6.toml".into(),
+        name: "bunny6".into(),
+        text: bunny.into(),
+        dir: None,
+    };
+    let desc = source.parse().unwrap();
+    let e = raytracer::scene::compile_within(
+        &source,
+        &desc,
+        Overrides::default(),
+        Budget::Cap(1 << 30),
+    )
+    .unwrap_err();
+    check_message(
+        &chain(&e),
+        &[
+            "20348928 triangles, subdivided 6 times",
+            "the limit is 1.0 GiB",
+        ],
+    );
+
+    if Budget::machine() == Budget::Unlimited {
+        eprintln!("skipped the 1M-triangle case: /proc/meminfo gives no MemAvailable here");
+        return;
+    }
+    // A grid of 1000 x 500 squares, two triangles each.
+    let mut obj = String::with_capacity(40 << 20);
+    for j in 0..=500 {
+        for i in 0..=1000 {
+            obj += &format!("v {i} {j} -5\n");
+        }
+    }
+    for j in 0..500 {
+        for i in 0..1000 {
+            let a = j * 1001 + i + 1;
+            obj += &format!(
+                "f {a} {} {}\nf {a} {} {}\n",
+                a + 1,
+                a + 1002,
+                a + 1002,
+                a + 1001
+            );
+        }
+    }
+    let text = mesh_scene().replace("path = \"m.obj\"", "path = \"m.obj\"\nsubdivide = 6");
+    let message = refused(&text, &[("m.obj", obj.as_bytes())], Overrides::default());
+    check_message(
+        &message,
+        &[
+            "m.obj: 4096000000 triangles, subdivided 6 times",
+            "not enough memory",
+        ],
+    );
+    // The same mesh without subdivision loads.
+    let scene = loads(&mesh_scene(), &[("m.obj", obj.as_bytes())]);
+    assert_eq!(scene.triangles.len(), 1_000_000);
 }

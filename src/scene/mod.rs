@@ -11,6 +11,7 @@ pub mod input;
 pub mod limits;
 pub mod mesh;
 
+use crate::budget::{Budget, MemoryEstimate, OBJ_BYTES_PER_FILE_BYTE};
 use crate::camera::{image_height, Camera};
 use crate::error::{Error, Result};
 use crate::geometry::quad::{box_faces, Quad};
@@ -382,13 +383,18 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Load and compile a built-in scene name or a scene file path (`SceneSource::resolve`);
-    /// for the tests and benchmarks, which edit the compiled scene (the public way in is
-    /// `SceneFile` and `Renderer`).
+    /// Load and compile a built-in scene name or a scene file path (`SceneSource::resolve`)
+    /// within the machine's free memory; for the tests and benchmarks, which edit the
+    /// compiled scene (the public way in is `SceneFile` and `Renderer`).
     pub fn load(arg: &str, overrides: Overrides) -> Result<Scene> {
+        Self::load_within(arg, overrides, Budget::machine())
+    }
+
+    /// `load` within a memory budget (`compile_within`).
+    pub fn load_within(arg: &str, overrides: Overrides, budget: Budget) -> Result<Scene> {
         let source = SceneSource::resolve(arg)?;
         let desc = source.parse()?;
-        compile(&source, &desc, overrides)
+        compile_within(&source, &desc, overrides, budget)
     }
 
     pub fn primitive_count(&self) -> usize {
@@ -401,8 +407,21 @@ impl Scene {
     }
 }
 
-/// Check values and build the render-ready scene.
+/// Check values and build the render-ready scene, within the machine's free memory
+/// (`Budget::machine`).
 pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> Result<Scene> {
+    compile_within(source, desc, overrides, Budget::machine())
+}
+
+/// `compile` within `budget`: the image, the geometry and the BVH it will need are
+/// estimated before they are made (a mesh before it is read and before it is
+/// subdivided), and a larger estimate is an `OutOfMemory` error.
+pub fn compile_within(
+    source: &SceneSource,
+    desc: &SceneDesc,
+    overrides: Overrides,
+    budget: Budget,
+) -> Result<Scene> {
     let err = |offset: usize, msg: String| source.error_at(offset, msg);
 
     // Camera. The file's values are checked even where a flag replaces them.
@@ -468,6 +487,12 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
         ));
     }
     let height = height as u32;
+    // The film is the first large allocation: EXR's encoder costs the most a pixel.
+    let mut estimate = MemoryEstimate::image(width as u64 * height as u64, true);
+    budget.check(
+        &estimate,
+        &format!("{}: a {width}x{height} image", source.display),
+    )?;
     if !(cam.vfov.is_finite() && cam.vfov > 0.0 && cam.vfov < 180.0) {
         return Err(err(
             cam_at,
@@ -649,12 +674,29 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
                         "subdivide must be 0 to {MAX_SUBDIVIDE}, got {subdivide}"
                     )));
                 }
-                let (display, text) = read_mesh(source, path).map_err(|e| match e {
-                    Error::Io { path: p, source: s } => oerr(format!("cannot read mesh {p}: {s}")),
-                    other => other,
-                })?;
+                let (display, text) =
+                    read_mesh(source, path, &estimate, budget).map_err(|e| match e {
+                        Error::Io { path: p, source: s } => {
+                            oerr(format!("cannot read mesh {p}: {s}"))
+                        }
+                        other => other,
+                    })?;
                 let mut mesh = mesh::parse_obj(&display, &text)?;
+                drop(text);
                 degenerate_triangles += mesh.degenerate;
+                // What the subdivided mesh will cost, before it is made.
+                let count = (mesh.triangles.len() as u64).saturating_mul(1 << (2 * subdivide));
+                let mut after = estimate;
+                after.add_primitives(0, 0, count, true);
+                if light_radiance.is_some() {
+                    after.add_light_triangles(count);
+                }
+                let subdivided = if *subdivide > 0 {
+                    format!(", subdivided {subdivide} times")
+                } else {
+                    String::new()
+                };
+                budget.check(&after, &format!("{display}: {count} triangles{subdivided}"))?;
                 if *subdivide > 0 {
                     mesh.triangles = crate::generate::subdivide_times(&mesh.triangles, *subdivide);
                 }
@@ -665,6 +707,20 @@ pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> 
                 LightShape::Triangles(mesh.triangles)
             }
         };
+        // Running totals (a mesh's were added above, before it was made).
+        match o {
+            ObjectDesc::Sphere { .. } => estimate.add_primitives(1, 0, 0, true),
+            ObjectDesc::Quad { .. } => estimate.add_primitives(0, 1, 0, true),
+            ObjectDesc::Triangle { .. } => estimate.add_primitives(0, 0, 1, true),
+            ObjectDesc::Box { .. } => estimate.add_primitives(0, 6, 0, true),
+            ObjectDesc::Mesh { .. } => {
+                let n = (next_id - first_id) as u64;
+                estimate.add_primitives(0, 0, n, true);
+                if light_radiance.is_some() {
+                    estimate.add_light_triangles(n);
+                }
+            }
+        }
         if let Some(radiance) = light_radiance {
             lights.push(Light {
                 object,
@@ -779,8 +835,13 @@ fn parse_aspect(t: &str) -> Option<f64> {
 }
 
 /// The mesh text: an embedded asset for a built-in scene, else a file relative to the
-/// scene file.
-fn read_mesh(source: &SceneSource, path: &str) -> Result<(String, Cow<'static, str>)> {
+/// scene file, whose loading must fit the budget beside `estimate`.
+fn read_mesh(
+    source: &SceneSource,
+    path: &str,
+    estimate: &MemoryEstimate,
+    budget: Budget,
+) -> Result<(String, Cow<'static, str>)> {
     match &source.dir {
         None => builtin::asset(path)
             .map(|t| (format!("{path} (built-in)"), Cow::Borrowed(t)))
@@ -791,6 +852,11 @@ fn read_mesh(source: &SceneSource, path: &str) -> Result<(String, Cow<'static, s
         Some(dir) => {
             let full = dir.join(path);
             let display = full.display().to_string();
+            if let Ok(size) = input::check_file(&full, input::MAX_MESH_BYTES, "mesh") {
+                let mut loading = *estimate;
+                loading.loading = size.saturating_mul(OBJ_BYTES_PER_FILE_BYTE);
+                budget.check(&loading, &format!("{display} ({size} bytes)"))?;
+            }
             let text =
                 input::read_text(&full, input::MAX_MESH_BYTES, "mesh").map_err(|e| match e {
                     ReadError::Io(source) => Error::Io {
