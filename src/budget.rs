@@ -10,7 +10,7 @@
 //! | what | bytes | where |
 //! |---|---|---|
 //! | pixel, while rendering | 24 | the film, linear f32 RGB (12), and the tiles' own copies until they are copied into it (12); 25.4 measured on a 4096x4096 render |
-//! | pixel, while writing | 12 + 3 (PNG, PPM) or 12 + 12 (EXR) | the film and the encoder's copy (8-bit bytes, or f32 channels) |
+//! | pixel, while writing | 12 (PNG, PPM) or 12 + 12 (EXR) | the film; PNG and PPM are encoded a row at a time, EXR from a copy of the film as f32 channels |
 //! | sphere, quad, triangle in a pool | 24, 120, 44 | `SpherePool`, `QuadPool`, `TrianglePool` |
 //! | primitive in the BVH | 112 | the build's references (32) and binary nodes (about 17), the 4-wide (about 17) and 8-wide (about 23) nodes, the reordering (8), and slack: a triangle in the tree costs 155 measured (bunny subdivided 3 and 4 times: 317 952 and 1 271 808 triangles, 73.3 and 217.8 MB) against 156 estimated |
 //! | triangle of a mesh light | 36 | the light's copy of its triangles |
@@ -22,7 +22,7 @@ use crate::scene::{LightShape, Scene};
 /// Bytes a pixel while rendering: the film and the tiles' copies.
 pub const RENDER_BYTES_PER_PIXEL: u64 = 24;
 /// Bytes a pixel while writing: the film and the encoder's copy, by format.
-pub const WRITE_BYTES_PER_PIXEL_8BIT: u64 = 12 + 3;
+pub const WRITE_BYTES_PER_PIXEL_8BIT: u64 = 12;
 pub const WRITE_BYTES_PER_PIXEL_EXR: u64 = 12 + 12;
 pub const SPHERE_BYTES: u64 = 24;
 pub const QUAD_BYTES: u64 = 120;
