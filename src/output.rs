@@ -125,10 +125,13 @@ fn encode<W: Write + std::io::Seek>(
 /// Read an OpenEXR image (any channel layout `image` can decode) into a film of linear
 /// RGB; f32 channels come back bit for bit.
 pub fn read_exr(path: &Path) -> Result<Film> {
-    let fail = |message: String| Error::Output {
-        path: path.to_path_buf(),
-        message,
+    let fail = |message: String| Error::Io {
+        path: path.display().to_string(),
+        source: std::io::Error::other(message),
     };
+    // A device or FIFO given as a reference would be read forever, or block.
+    crate::scene::input::check_file(path, u64::MAX, "reference image")
+        .map_err(|e| fail(e.to_string()))?;
     let reader = image::ImageReader::open(path)
         .map_err(|e| fail(e.to_string()))?
         .with_guessed_format()
@@ -693,5 +696,28 @@ mod tests {
         let mut want = b"P6\n5 3\n255\n".to_vec();
         want.extend(to_bytes(&film));
         assert_eq!(std::fs::read(&ppm).unwrap(), want);
+    }
+
+    #[test]
+    fn a_bad_reference_is_a_read_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("ref.exr");
+        std::fs::write(&path, b"not an image").unwrap();
+        let chain = |e: Error| {
+            let source = std::error::Error::source(&e).map(|s| s.to_string());
+            format!("{e}: {}", source.unwrap_or_default())
+        };
+        let message = chain(read_exr(&path).unwrap_err());
+        assert!(message.starts_with("cannot read"), "{message}");
+        assert!(message.contains("OpenExr"), "{message}");
+        // Named .png: the format is not EXR.
+        let png = dir.path().join("ref.png");
+        std::fs::write(&png, b"not an image").unwrap();
+        let message = chain(read_exr(&png).unwrap_err());
+        assert!(message.contains("not an OpenEXR file"), "{message}");
+        let message = chain(read_exr(&dir.path().join("missing.exr")).unwrap_err());
+        assert!(message.starts_with("cannot read"), "{message}");
+        let message = chain(read_exr(dir.path()).unwrap_err());
+        assert!(message.contains("not a regular file"), "{message}");
     }
 }
