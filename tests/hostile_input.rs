@@ -16,8 +16,8 @@ use raytracer::accel::{Accel, AccelKind};
 use raytracer::budget::{self, Budget, MemoryEstimate};
 use raytracer::geometry::{Aabb, PrimKind};
 use raytracer::render::render;
-use raytracer::{PacketWidth, RenderSettings};
 use raytracer::scene::{builtin, Overrides, Scene};
+use raytracer::{PacketWidth, RenderSettings};
 use support::bits;
 
 /// Load `text` as `scene.toml` (with `files` beside it) and return the error message, or
@@ -620,4 +620,86 @@ fn a_subdivided_mesh_over_the_budget_is_refused_before_it_is_made() {
     // The same mesh without subdivision loads.
     let scene = loads(&mesh_scene(), &[("m.obj", obj.as_bytes())]);
     assert_eq!(scene.triangles.len(), 1_000_000);
+}
+
+// ---------------------------------------------------------------------------------------
+// Deep mirror chains.
+
+/// Two facing `phong_mirror` quads with the camera between them, at the largest accepted
+/// `max_depth`: every camera ray bounces between the mirrors until the depth is spent. A
+/// tracer that recursed a call per reflection would overflow its thread's stack here
+/// (rayon's workers have 2 MiB); the path loop runs in constant stack at every packet
+/// width. An index of 10⁶ makes the mirrors reflect nearly everything (Schlick's F ≥
+/// 1 − 4·10⁻⁶), so every reflection adds to the pixel.
+#[test]
+fn mirror_chains_of_the_largest_depth_render_at_every_width() {
+    const DEPTH: u32 = 10_000;
+    let text = format!(
+        r#"
+background = [0.2, 0.3, 0.4]
+ambient = [0.1, 0.1, 0.1]
+
+[camera]
+width = 8
+aspect_ratio = 1.0
+samples_per_pixel = 1
+max_depth = {DEPTH}
+vfov = 0.1
+look_from = [0, 0, 0]
+look_at = [0, 0, -1]
+
+[materials.mirror]
+type = "phong_mirror"
+albedo = [0.5, 0.5, 0.5]
+shininess = 10
+index = 1e6
+
+[materials.lamp]
+type = "light"
+color = [1, 1, 1]
+
+[[objects]]
+type = "quad"
+corner = [-50, -50, -1]
+u = [100, 0, 0]
+v = [0, 100, 0]
+material = "mirror"
+
+[[objects]]
+type = "quad"
+corner = [-50, -50, 1]
+u = [100, 0, 0]
+v = [0, 100, 0]
+material = "mirror"
+
+[[objects]]
+type = "sphere"
+center = [0, 0.5, 0]
+radius = 0.01
+material = "lamp"
+"#
+    );
+    let mut scene = loads(&text, &[]);
+    assert_eq!(scene.max_depth, DEPTH);
+    let accel = Accel::build(&mut scene, AccelKind::Bvh);
+    let pixels = (scene.camera.width * scene.camera.height) as u64;
+    let mut films = Vec::new();
+    for packet_width in PacketWidth::ALL {
+        let settings = RenderSettings {
+            packet_width,
+            ..RenderSettings::new(0)
+        };
+        let rendered = render(&scene, &accel, &settings, &|| {}).unwrap();
+        // Every camera ray hits a mirror and reflects at each of its DEPTH vertices.
+        assert_eq!(rendered.counts.camera, pixels);
+        assert_eq!(
+            rendered.counts.secondary,
+            pixels * DEPTH as u64,
+            "width {packet_width}"
+        );
+        assert_eq!(rendered.film.non_finite_count(), 0, "width {packet_width}");
+        films.push(rendered.film);
+    }
+    assert_eq!(bits(&films[0]), bits(&films[1]));
+    assert_eq!(bits(&films[0]), bits(&films[2]));
 }
