@@ -10,7 +10,7 @@
 //! | what | bytes | where |
 //! |---|---|---|
 //! | pixel, while rendering | 24 | the film, linear f32 RGB (12), and the tiles' own copies until they are copied into it (12); 25.4 measured on a 4096x4096 render |
-//! | pixel, while writing | 12 (PNG, PPM) or 12 + 12 (EXR) | the film; PNG and PPM are encoded a row at a time, EXR from a copy of the film as f32 channels |
+//! | pixel, while writing | 12 | the film: PNG and PPM are encoded a row at a time, EXR a 64x64 tile at a time |
 //! | sphere, quad, triangle in a pool | 24, 120, 44 | `SpherePool`, `QuadPool`, `TrianglePool` |
 //! | primitive in the BVH | 112 | the build's references (32) and binary nodes (about 17), the 4-wide (about 17) and 8-wide (about 23) nodes, the reordering (8), and slack: a triangle in the tree costs 155 measured (bunny subdivided 3 and 4 times: 317 952 and 1 271 808 triangles, 73.3 and 217.8 MB) against 156 estimated |
 //! | triangle of a mesh light | 36 | the light's copy of its triangles |
@@ -21,9 +21,9 @@ use crate::scene::{LightShape, Scene};
 
 /// Bytes a pixel while rendering: the film and the tiles' copies.
 pub const RENDER_BYTES_PER_PIXEL: u64 = 24;
-/// Bytes a pixel while writing: the film and the encoder's copy, by format.
-pub const WRITE_BYTES_PER_PIXEL_8BIT: u64 = 12;
-pub const WRITE_BYTES_PER_PIXEL_EXR: u64 = 12 + 12;
+/// Bytes a pixel while writing: the film (every format is encoded from it a few rows or
+/// tiles at a time).
+pub const WRITE_BYTES_PER_PIXEL: u64 = 12;
 pub const SPHERE_BYTES: u64 = 24;
 pub const QUAD_BYTES: u64 = 120;
 pub const TRIANGLE_BYTES: u64 = 44;
@@ -51,15 +51,10 @@ pub struct MemoryEstimate {
 }
 
 impl MemoryEstimate {
-    /// For `pixels` pixels written as EXR (`exr`) or 8-bit (PNG, PPM).
-    pub fn image(pixels: u64, exr: bool) -> Self {
-        let write = if exr {
-            WRITE_BYTES_PER_PIXEL_EXR
-        } else {
-            WRITE_BYTES_PER_PIXEL_8BIT
-        };
+    /// For an image of `pixels` pixels, rendered and written.
+    pub fn image(pixels: u64) -> Self {
         MemoryEstimate {
-            image: pixels.saturating_mul(RENDER_BYTES_PER_PIXEL.max(write)),
+            image: pixels.saturating_mul(RENDER_BYTES_PER_PIXEL.max(WRITE_BYTES_PER_PIXEL)),
             ..Default::default()
         }
     }
@@ -85,11 +80,11 @@ impl MemoryEstimate {
             .saturating_add(triangles.saturating_mul(LIGHT_TRIANGLE_BYTES));
     }
 
-    /// A compiled scene rendered to an EXR (`exr`) or 8-bit file, with or without the
-    /// BVH (`--accel linear` builds none): what the CLI checks before the build.
-    pub fn of_scene(scene: &Scene, bvh: bool, exr: bool) -> Self {
+    /// A compiled scene rendered and written, with or without the BVH (`--accel linear`
+    /// builds none): what `Renderer::new` checks before the build.
+    pub fn of_scene(scene: &Scene, bvh: bool) -> Self {
         let camera = &scene.camera;
-        let mut e = Self::image(camera.width as u64 * camera.height as u64, exr);
+        let mut e = Self::image(camera.width as u64 * camera.height as u64);
         e.add_primitives(
             scene.spheres.len() as u64,
             scene.quads.len() as u64,
@@ -193,9 +188,8 @@ mod tests {
 
     #[test]
     fn estimates_add_up_and_saturate() {
-        let mut e = MemoryEstimate::image(1000, false);
+        let mut e = MemoryEstimate::image(1000);
         assert_eq!(e.image, 1000 * 24);
-        assert_eq!(MemoryEstimate::image(1000, true).image, 1000 * 24);
         e.add_primitives(1, 2, 3, true);
         assert_eq!(e.geometry, 24 + 2 * 120 + 3 * 44);
         assert_eq!(e.bvh, 6 * 112);
@@ -208,7 +202,7 @@ mod tests {
 
     #[test]
     fn the_check_names_the_estimate() {
-        let e = MemoryEstimate::image(65536 * 4096, false);
+        let e = MemoryEstimate::image(65536 * 4096);
         assert!(Budget::Unlimited.check(&e, "x").is_ok());
         assert!(Budget::Cap(e.total()).check(&e, "x").is_ok());
         let err = Budget::Cap(3584 << 20)

@@ -73,9 +73,10 @@ pub fn write_exr(film: &Film, path: &Path) -> Result<()> {
     write_image(film, path)
 }
 
-/// Encode the film in `format` to `out`. PNG and PPM are encoded a row at a time (no
-/// second full-size copy of the image: the write costs the film's 12 bytes a pixel);
-/// EXR through a copy of the film as f32 channels (12 more).
+/// Encode the film in `format` to `out`, with no second full-size copy of the image (the
+/// write costs the film's 12 bytes a pixel and buffers of a few rows): PNG and PPM are
+/// quantised a row at a time; EXR is written by the `exr` crate a 64x64 tile at a time
+/// (run-length encoded, as `image` writes it), reading the film's pixels as it goes.
 fn encode<W: Write + std::io::Seek>(
     film: &Film,
     format: ImageFormat,
@@ -108,16 +109,20 @@ fn encode<W: Write + std::io::Seek>(
             writer.finish().map_err(std::io::Error::other)
         }
         ImageFormat::Exr => {
-            let floats: Vec<f32> = film.pixels.iter().flat_map(|p| p.to_array()).collect();
-            image::write_buffer_with_format(
-                out,
-                bytemuck::cast_slice(&floats),
-                w,
-                h,
-                image::ExtendedColorType::Rgb32F,
-                image::ImageFormat::OpenExr,
-            )
-            .map_err(std::io::Error::other)
+            use exr::prelude::{Image, SpecificChannels, Vec2, WritableImage};
+            let width = w as usize;
+            let channels = SpecificChannels::rgb(|at: Vec2<usize>| {
+                let p = film.pixels[at.y() * width + at.x()];
+                (p.x, p.y, p.z)
+            });
+            Image::from_channels((width, h as usize), channels)
+                .write()
+                .non_parallel()
+                .to_buffered(out)
+                .map_err(|e| match e {
+                    exr::error::Error::Io(io) => io,
+                    other => std::io::Error::other(other),
+                })
         }
     }
 }

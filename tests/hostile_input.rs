@@ -549,7 +549,7 @@ fn an_image_over_the_budget_is_refused_with_its_estimate() {
         ..Overrides::default()
     };
     let scene = Scene::load_within(path.to_str().unwrap(), flags, cap).unwrap();
-    let estimate = MemoryEstimate::of_scene(&scene, true, false);
+    let estimate = MemoryEstimate::of_scene(&scene, true);
     assert_eq!(estimate.image, 8192 * 512 * budget::RENDER_BYTES_PER_PIXEL);
 }
 

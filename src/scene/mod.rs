@@ -487,8 +487,8 @@ pub fn compile_within(
         ));
     }
     let height = height as u32;
-    // The film is the first large allocation: EXR's encoder costs the most a pixel.
-    let mut estimate = MemoryEstimate::image(width as u64 * height as u64, true);
+    // The film is the first large allocation.
+    let mut estimate = MemoryEstimate::image(width as u64 * height as u64);
     budget.check(
         &estimate,
         &format!("{}: a {width}x{height} image", source.display),
