@@ -108,46 +108,120 @@ impl MemoryEstimate {
     }
 }
 
+/// What sets a run's memory limit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Limit {
+    /// The machine's free memory (`MemAvailable` in `/proc/meminfo`).
+    Available,
+    /// The process's address-space limit (`ulimit -v`, `prlimit --as`), less what the
+    /// process already maps.
+    AddressSpace,
+    /// A cap the caller gave (the command line's `--max-memory`).
+    Cap,
+}
+
+impl Limit {
+    /// The end of a refusal's message: "the machine has 3.5 GiB available".
+    pub fn describe(self, bytes: u64) -> String {
+        match self {
+            Limit::Available => format!("the machine has {} available", human(bytes)),
+            Limit::AddressSpace => format!(
+                "the address-space limit (ulimit -v) leaves {}",
+                human(bytes)
+            ),
+            Limit::Cap => format!("the limit is {}", human(bytes)),
+        }
+    }
+}
+
 /// The memory a run may use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Budget {
-    /// No limit (the machine's free memory is unknown, or the caller does not check).
+    /// No limit (the system does not say, or the caller does not check).
     Unlimited,
-    /// The machine's free memory (`MemAvailable`), in bytes.
-    Available(u64),
-    /// A cap given by the user, in bytes.
-    Cap(u64),
+    /// At most `bytes` in all, set by `by`.
+    Limited { bytes: u64, by: Limit },
 }
 
 impl Budget {
-    /// The machine's free memory, or `Unlimited` where `/proc/meminfo` does not say.
+    /// A cap of `bytes` given by the caller.
+    pub fn cap(bytes: u64) -> Budget {
+        Budget::Limited {
+            bytes,
+            by: Limit::Cap,
+        }
+    }
+
+    /// The smaller of the machine's free memory and what the process's address-space
+    /// limit leaves (counting the program as [`BASE_BYTES`], as estimates do), or
+    /// `Unlimited` where the system says neither.
     pub fn machine() -> Budget {
-        std::fs::read_to_string("/proc/meminfo")
+        let available = std::fs::read_to_string("/proc/meminfo")
             .ok()
             .and_then(|text| mem_available(&text))
-            .map_or(Budget::Unlimited, Budget::Available)
+            .map(|bytes| (bytes, Limit::Available));
+        let address_space = std::fs::read_to_string("/proc/self/limits")
+            .ok()
+            .and_then(|text| address_space_limit(&text))
+            .map(|limit| {
+                let mapped = std::fs::read_to_string("/proc/self/status")
+                    .ok()
+                    .and_then(|text| vm_size(&text))
+                    .unwrap_or(0);
+                let left = limit.saturating_sub(mapped).saturating_add(BASE_BYTES);
+                (left, Limit::AddressSpace)
+            });
+        match available
+            .into_iter()
+            .chain(address_space)
+            .min_by_key(|&(bytes, _)| bytes)
+        {
+            Some((bytes, by)) => Budget::Limited { bytes, by },
+            None => Budget::Unlimited,
+        }
     }
 
     pub fn limit(&self) -> Option<u64> {
         match *self {
             Budget::Unlimited => None,
-            Budget::Available(b) | Budget::Cap(b) => Some(b),
+            Budget::Limited { bytes, .. } => Some(bytes),
         }
     }
 
     /// `Err(OutOfMemory)` if `estimate` exceeds the budget; `what` says what was being
     /// prepared ("a 65536x4096 image", "mesh bunny.obj subdivided 6 times").
     pub fn check(&self, estimate: &MemoryEstimate, what: &str) -> Result<()> {
-        match self.limit() {
-            Some(limit) if estimate.total() > limit => Err(Error::OutOfMemory {
+        match *self {
+            Budget::Limited { bytes, by } if estimate.total() > bytes => Err(Error::OutOfMemory {
                 what: what.to_string(),
                 estimate: *estimate,
-                limit,
-                available: matches!(self, Budget::Available(_)),
+                limit: bytes,
+                limited_by: by,
             }),
             _ => Ok(()),
         }
     }
+}
+
+/// The soft `Max address space` of `/proc/self/limits` text, in bytes (`None`:
+/// unlimited).
+fn address_space_limit(limits: &str) -> Option<u64> {
+    let line = limits
+        .lines()
+        .find(|l| l.starts_with("Max address space"))?;
+    line["Max address space".len()..]
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+}
+
+/// `VmSize` of `/proc/self/status` text (the bytes the process maps), in bytes.
+fn vm_size(status: &str) -> Option<u64> {
+    let line = status.lines().find(|l| l.starts_with("VmSize:"))?;
+    let mut words = line.split_whitespace().skip(1);
+    let kib: u64 = words.next()?.parse().ok()?;
+    (words.next() == Some("kB")).then_some(kib * 1024)
 }
 
 /// `MemAvailable` of `/proc/meminfo` text, in bytes.
@@ -187,6 +261,19 @@ mod tests {
     }
 
     #[test]
+    fn reads_the_address_space_limit_and_size() {
+        let line = |soft: &str| {
+            format!("Max stack size            8388608              unlimited            bytes\nMax address space         {soft:<20} unlimited            bytes\n")
+        };
+        assert_eq!(address_space_limit(&line("unlimited")), None);
+        assert_eq!(address_space_limit(&line("3758096384")), Some(3758096384));
+        assert_eq!(
+            vm_size("Name:\tx\nVmPeak:\t  9000 kB\nVmSize:\t  8000 kB\n"),
+            Some(8000 * 1024)
+        );
+    }
+
+    #[test]
     fn estimates_add_up_and_saturate() {
         let mut e = MemoryEstimate::image(1000);
         assert_eq!(e.image, 1000 * 24);
@@ -204,8 +291,8 @@ mod tests {
     fn the_check_names_the_estimate() {
         let e = MemoryEstimate::image(65536 * 4096);
         assert!(Budget::Unlimited.check(&e, "x").is_ok());
-        assert!(Budget::Cap(e.total()).check(&e, "x").is_ok());
-        let err = Budget::Cap(3584 << 20)
+        assert!(Budget::cap(e.total()).check(&e, "x").is_ok());
+        let err = Budget::cap(3584 << 20)
             .check(&e, "a 65536x4096 image")
             .unwrap_err();
         let message = err.to_string();

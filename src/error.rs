@@ -1,7 +1,7 @@
 //! The library's error type. Every variant names what the user has to fix: the file and
 //! line of a scene or OBJ, the setting, or the output path.
 
-use crate::budget::{human, MemoryEstimate};
+use crate::budget::{human, Limit, MemoryEstimate};
 use std::path::PathBuf;
 
 /// What went wrong, with the file, line and column where there is one. `{}` prints one
@@ -83,14 +83,13 @@ pub enum Error {
 
     /// The memory budget refused an estimate before the memory was taken.
     #[error(
-        "not enough memory for {what}: it needs about {} (image {}, geometry {}, BVH {}, loading {}), and {} {}",
+        "not enough memory for {what}: it needs about {} (image {}, geometry {}, BVH {}, loading {}), and {}",
         human(estimate.total()),
         human(estimate.image),
         human(estimate.geometry),
         human(estimate.bvh),
         human(estimate.loading),
-        if *available { "the machine has" } else { "the limit is" },
-        if *available { format!("{} available", human(*limit)) } else { human(*limit) }
+        limited_by.describe(*limit)
     )]
     OutOfMemory {
         /// What was being made ("the scene", "the image").
@@ -99,8 +98,9 @@ pub enum Error {
         estimate: MemoryEstimate,
         /// The bytes allowed.
         limit: u64,
-        /// The limit is the machine's free memory (else a cap the user gave).
-        available: bool,
+        /// What sets the limit: the machine's free memory, a cgroup, `ulimit -v`, or a
+        /// cap the caller gave.
+        limited_by: Limit,
     },
 }
 

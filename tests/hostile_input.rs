@@ -533,7 +533,7 @@ fn an_image_over_the_budget_is_refused_with_its_estimate() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("scene.toml");
     std::fs::write(&path, text).unwrap();
-    let cap = Budget::Cap(3584 << 20);
+    let cap = Budget::cap(3584 << 20);
     let e = Scene::load_within(path.to_str().unwrap(), Overrides::default(), cap).unwrap_err();
     check_message(
         &chain(&e),
@@ -574,7 +574,7 @@ fn a_subdivided_mesh_over_the_budget_is_refused_before_it_is_made() {
         &source,
         &desc,
         Overrides::default(),
-        Budget::Cap(1 << 30),
+        Budget::cap(1 << 30),
     )
     .unwrap_err();
     check_message(

@@ -11,8 +11,8 @@ mod support;
 use proptest::prelude::*;
 use raytracer::accel::{Accel, AccelKind};
 use raytracer::render::render;
-use raytracer::{PacketWidth, RenderSettings};
 use raytracer::scene::{builtin, compile, Overrides, SceneSource};
+use raytracer::{PacketWidth, RenderSettings};
 use std::borrow::Cow;
 use support::bits;
 

@@ -61,7 +61,7 @@ fuzz_target!(|data: &[u8]| {
         max_depth: Some(4),
     };
     // The memory budget keeps an input's memory in bounds (libFuzzer's limit is 2 GiB).
-    let Ok(scene) = compile_within(&source, &desc, overrides, Budget::Cap(512 << 20)) else {
+    let Ok(scene) = compile_within(&source, &desc, overrides, Budget::cap(512 << 20)) else {
         return;
     };
     // A mesh used as a light is tested triangle by triangle by every shadow ray (the
