@@ -1,17 +1,22 @@
 //! The `raytracer` command: parse the flags, validate them, run on one pool of worker
-//! threads. Every error ends here as one message on stderr and exit code 2.
+//! threads. Every error ends here as one message on stderr and exit code 2; a reader of
+//! standard output that goes away early (`raytracer --list | head -1`) ends the run with
+//! exit code 0.
 
+#[macro_use]
 mod cli;
 
 use clap::Parser;
 use cli::options::{self, Options};
+use raytracer::output;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
     match run() {
         Ok(code) => code,
+        Err(e) if e.is::<cli::StdoutClosed>() => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            to_stderr!("error: {e:#}");
             ExitCode::from(2)
         }
     }
@@ -22,6 +27,22 @@ fn run() -> anyhow::Result<ExitCode> {
     if let Options::List = options {
         cli::list()?;
         return Ok(ExitCode::SUCCESS);
+    }
+    // Before any output file exists: a SIGINT or SIGTERM from here on removes this run's
+    // temporary files, and those a killed run left in the output directories go now.
+    #[cfg(unix)]
+    output::install_signal_cleanup().map_err(|e| {
+        anyhow::anyhow!("cannot start the thread that cleans up after a signal: {e}")
+    })?;
+    for dir in options.output_dirs() {
+        let removed = output::remove_stale_temporaries(&dir);
+        if !removed.is_empty() {
+            to_stderr!(
+                "note: removed {} temporary files that a killed run left in {}",
+                removed.len(),
+                dir.display()
+            );
+        }
     }
     let (pool, threads) = cli::thread_pool(threads)?;
     pool.install(|| match &options {

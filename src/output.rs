@@ -157,23 +157,56 @@ pub fn read_exr(path: &Path) -> Result<Film> {
     })
 }
 
-/// Check, before a long render, that `path` can be written: a known extension and an
-/// existing directory.
+/// Check, before a long render, that `path` can be written: its directory exists, it is
+/// not a directory, and a file can be created beside it (the temporary file an
+/// `OutputSet` writes: a read-only directory, or one without room for a new file, is
+/// found here rather than after the render).
 pub fn check_writable(path: &Path) -> Result<()> {
+    let fail = |message: String| Error::Output {
+        path: path.to_path_buf(),
+        message,
+    };
     let dir = parent_dir(path);
     if !dir.is_dir() {
-        return Err(Error::Output {
-            path: path.to_path_buf(),
-            message: format!("directory {} does not exist", dir.display()),
-        });
+        return Err(fail(format!("directory {} does not exist", dir.display())));
     }
     if path.is_dir() {
-        return Err(Error::Output {
-            path: path.to_path_buf(),
-            message: "is a directory".into(),
-        });
+        return Err(fail("is a directory".into()));
     }
+    // Registered like any temporary file, so a signal now leaves nothing behind.
+    let probe = {
+        let mut list = pending();
+        let probe = tempfile::Builder::new()
+            .prefix(&temp_prefix())
+            .suffix(".tmp")
+            .tempfile_in(dir)
+            .map_err(|e| {
+                fail(format!(
+                    "cannot create a file in {}: {}",
+                    dir.display(),
+                    e.kind()
+                ))
+            })?;
+        list.push(probe.path().to_path_buf());
+        probe
+    };
+    let written = probe
+        .as_file()
+        .write_all(b"0")
+        .and_then(|()| probe.as_file().sync_all());
+    {
+        // Removed with the list locked: a signal finds it listed or gone.
+        let mut list = pending();
+        forget(&mut list, probe.path());
+        drop(probe);
+    }
+    written.map_err(|e| fail(format!("cannot write a file in {}: {e}", dir.display())))?;
     Ok(())
+}
+
+/// The directory `path` is in (`.` for a bare file name): where its temporary files go.
+pub fn directory_of(path: &Path) -> PathBuf {
+    parent_dir(path).to_path_buf()
 }
 
 fn parent_dir(path: &Path) -> &Path {
@@ -408,9 +441,13 @@ fn remove_locked(list: &mut Vec<PathBuf>) -> usize {
 /// end the process by the signal's default action (so its parent sees the signal). A
 /// thread waits for the signals (`signal-hook`: the handler itself only wakes it, which
 /// is all a signal handler may safely do). Call once, early.
+///
+/// Also makes SIGXFSZ (a write past the file-size limit, `ulimit -f`) a failed write, an
+/// error like a full disk, instead of the end of the process with its files left.
 #[cfg(unix)]
 pub fn install_signal_cleanup() -> std::io::Result<()> {
-    use signal_hook::consts::{SIGINT, SIGTERM};
+    use signal_hook::consts::{SIGINT, SIGTERM, SIGXFSZ};
+    signal_hook::flag::register(SIGXFSZ, std::sync::Arc::default())?;
     let mut signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM])?;
     std::thread::Builder::new()
         .name("signal cleanup".into())

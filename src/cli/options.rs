@@ -1,11 +1,12 @@
 //! Validated options: what the parsed flags mean, checked before any long work (the
-//! output's format and directory, the report's directory), with defaults filled in.
+//! output's format, that every output file can be written, that the report replaces
+//! neither the scene file nor the image), with defaults filled in.
 
 use super::args::{self, Args};
 use super::scene_stem;
 use raytracer::output::{self, ImageFormat};
 use raytracer::{PacketWidth, RenderSettings, SamplerKind, SceneOptions};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// What the command line asks for.
 #[derive(Debug)]
@@ -58,6 +59,24 @@ pub struct SweepOptions {
     pub reference_spp: u32,
 }
 
+impl Options {
+    /// The directories the command writes files into, where a killed run may have left
+    /// temporary files (`output::remove_stale_temporaries`).
+    pub fn output_dirs(&self) -> Vec<PathBuf> {
+        let mut dirs: Vec<PathBuf> = match self {
+            Options::List => Vec::new(),
+            Options::Render(o) => std::iter::once(&o.output)
+                .chain(&o.report)
+                .map(|p| output::directory_of(p))
+                .collect(),
+            Options::Reference(o) => vec![output::directory_of(&o.output)],
+            Options::Sweep(o) => vec![output::directory_of(&o.reference), o.out.clone()],
+        };
+        dirs.dedup();
+        dirs
+    }
+}
+
 /// The options and the worker threads they ask for (`None`: all cores).
 pub fn from_args(args: Args) -> anyhow::Result<(Options, Option<u32>)> {
     match args.command {
@@ -86,6 +105,10 @@ fn render(args: Args) -> anyhow::Result<RenderOptions> {
     output::check_writable(&output)?;
     if let Some(report) = &args.report {
         output::check_writable(report)?;
+        // A scene argument that names a file (not a built-in scene).
+        let scene_path = Path::new(&scene);
+        let scene_file = scene_path.is_file().then_some(scene_path);
+        output::check_distinct_outputs(scene_file, &output, report)?;
     }
     Ok(RenderOptions {
         scene,
@@ -94,6 +117,7 @@ fn render(args: Args) -> anyhow::Result<RenderOptions> {
             spp: args.spp,
             max_depth: args.max_depth,
             accel: args.accel.into(),
+            max_memory: args.max_memory,
         },
         settings: RenderSettings {
             seed: args.seed,

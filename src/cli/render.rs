@@ -1,9 +1,12 @@
 //! Render one scene: load, build, render on the current pool (with a progress bar on a
-//! terminal), write the image, then the report, the statistics and the summary line.
+//! terminal), write the image and the report together (all or nothing), then the
+//! statistics and the summary line.
 
 use super::options::RenderOptions;
 use super::{report, stats};
-use raytracer::{PacketWidth, Rendered, Renderer};
+use raytracer::budget::Limit;
+use raytracer::output::OutputSet;
+use raytracer::{Error, PacketWidth, Rendered, Renderer};
 use std::io::IsTerminal;
 use std::time::{Duration, Instant};
 
@@ -33,10 +36,16 @@ pub struct Run<'a> {
 pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
     let start = Instant::now();
     if o.settings.packet_width == PacketWidth::Eight && !raytracer::lanes::AVX2 && o.notes {
-        eprintln!("note: built without AVX2: 8-wide packets run as two 4-wide halves");
+        to_stderr!("note: built without AVX2: 8-wide packets run as two 4-wide halves");
     }
     let file = super::scene_file(&o.scene)?;
-    let renderer = Renderer::new(&file, &o.scene_options)?;
+    let renderer = Renderer::new(&file, &o.scene_options).map_err(|e| match e {
+        Error::OutOfMemory {
+            limited_by: Limit::Cap,
+            ..
+        } => anyhow::Error::new(e).context("--max-memory"),
+        e => e.into(),
+    })?;
     let built = Instant::now();
 
     let bar = o.notes.then(|| progress_bar(&renderer)).flatten();
@@ -51,8 +60,11 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
     }
     let rendered_at = Instant::now();
 
-    rendered.film.write(&o.output)?;
-    let run = Run {
+    // The image and the report are written to temporary files, then renamed into
+    // place together: a failure leaves neither, and no earlier file is replaced.
+    let mut files = OutputSet::default();
+    files.add_image(&rendered.film, &o.output)?;
+    let mut run = Run {
         options: o,
         renderer: &renderer,
         rendered: &rendered,
@@ -66,8 +78,14 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
         },
     };
     if let Some(path) = &o.report {
-        report::write(path, &run)?;
+        let json = report::json(&run)?;
+        files.add(path, |out| {
+            use std::io::Write;
+            writeln!(out, "{json}")
+        })?;
     }
+    files.commit()?;
+    run.timings.write = rendered_at.elapsed();
     if o.stats {
         stats::print(&run);
     }
@@ -97,10 +115,10 @@ fn summary(run: &Run) {
     let (r, film, counts) = (run.renderer, &run.rendered.film, run.rendered.counts);
     let bad = film.non_finite_count();
     if bad > 0 {
-        eprintln!("warning: {bad} pixels had a NaN or infinite value");
+        to_stderr!("warning: {bad} pixels had a NaN or infinite value");
     }
     let render_s = run.timings.render.as_secs_f64();
-    eprintln!(
+    to_stderr!(
         "{}: {}x{}, {} spp, {:.3} s render ({:.3} s total), {:.2} M rays, {:.1} Mrays/s -> {}",
         r.name(),
         r.width(),

@@ -1,9 +1,8 @@
-//! `--report FILE`: sizes, timings and ray counts of a run as JSON, written atomically.
+//! `--report FILE`: sizes, timings and ray counts of a run as JSON, written with the
+//! image (`cli::render`).
 
 use super::render::Run;
-use raytracer::output;
 use raytracer::RayCounts;
-use std::path::Path;
 
 /// The `--report` JSON.
 #[derive(Debug, serde::Serialize)]
@@ -63,8 +62,9 @@ impl From<RayCounts> for Rays {
     }
 }
 
-/// Write the report of `run` to `path`.
-pub fn write(path: &Path, run: &Run) -> anyhow::Result<()> {
+/// The report of `run`, as JSON. The write time is the image's encoding (the report is
+/// written with it).
+pub fn json(run: &Run) -> anyhow::Result<String> {
     let (r, t) = (run.renderer, run.timings);
     let report = Report {
         scene: r.name(),
@@ -85,10 +85,5 @@ pub fn write(path: &Path, run: &Run) -> anyhow::Result<()> {
         rays: run.rendered.counts.into(),
         non_finite_pixels: run.rendered.film.non_finite_count(),
     };
-    let json = serde_json::to_string_pretty(&report)?;
-    output::write_atomically(path, |out| {
-        use std::io::Write;
-        writeln!(out, "{json}")
-    })?;
-    Ok(())
+    Ok(serde_json::to_string_pretty(&report)?)
 }
