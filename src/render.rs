@@ -18,12 +18,26 @@ use wide::f32x8;
 /// Tile edge in pixels. A multiple of the packet footprints (4x2 and 2x2).
 pub const TILE: u32 = 16;
 
+/// Tiles rendered before their pixels are copied into the film: 4096 tiles of 256
+/// pixels (a 1024x1024 image in one batch).
+const TILE_BATCH: usize = 4096;
+
 /// Render on the current rayon pool. `on_tile` is called after each tile (progress).
 pub fn render(
     scene: &Scene,
     accel: &Accel,
     settings: &RenderSettings,
     on_tile: &(dyn Fn() + Sync),
+) -> Result<Rendered> {
+    render_in_batches(scene, accel, settings, on_tile, TILE_BATCH)
+}
+
+fn render_in_batches(
+    scene: &Scene,
+    accel: &Accel,
+    settings: &RenderSettings,
+    on_tile: &(dyn Fn() + Sync),
+    tile_batch: usize,
 ) -> Result<Rendered> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     let mut film = Film::new(w, h)?;
@@ -35,29 +49,33 @@ pub fn render(
     let tiles: Vec<(u32, u32)> = (0..tiles_y)
         .flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty)))
         .collect();
-    let results: Vec<(Vec<Vec3>, RayCounts)> = tiles
-        .par_iter()
-        .map(|&(tx, ty)| {
-            let r = render_tile(
-                &tracer,
-                settings.packet_width,
-                tx * TILE,
-                ty * TILE,
-                (tx * TILE + TILE).min(w),
-                (ty * TILE + TILE).min(h),
-            );
-            on_tile();
-            r
-        })
-        .collect();
+    // Tiles in batches, each copied into the film before the next: the tiles' own
+    // pixels never take more than a batch's 12 MB beside the film.
     let mut counts = RayCounts::default();
-    for (&(tx, ty), (pixels, c)) in tiles.iter().zip(&results) {
-        counts.add(c);
-        let (x0, y0) = (tx * TILE, ty * TILE);
-        let tw = (x0 + TILE).min(w) - x0;
-        for (row, chunk) in pixels.chunks_exact(tw as usize).enumerate() {
-            let start = ((y0 + row as u32) * w + x0) as usize;
-            film.pixels[start..start + tw as usize].copy_from_slice(chunk);
+    for batch in tiles.chunks(tile_batch) {
+        let results: Vec<(Vec<Vec3>, RayCounts)> = batch
+            .par_iter()
+            .map(|&(tx, ty)| {
+                let r = render_tile(
+                    &tracer,
+                    settings.packet_width,
+                    tx * TILE,
+                    ty * TILE,
+                    (tx * TILE + TILE).min(w),
+                    (ty * TILE + TILE).min(h),
+                );
+                on_tile();
+                r
+            })
+            .collect();
+        for (&(tx, ty), (pixels, c)) in batch.iter().zip(&results) {
+            counts.add(c);
+            let (x0, y0) = (tx * TILE, ty * TILE);
+            let tw = (x0 + TILE).min(w) - x0;
+            for (row, chunk) in pixels.chunks_exact(tw as usize).enumerate() {
+                let start = ((y0 + row as u32) * w + x0) as usize;
+                film.pixels[start..start + tw as usize].copy_from_slice(chunk);
+            }
         }
     }
     Ok(Rendered { film, counts })
@@ -143,4 +161,41 @@ fn render_tile_packets<L: Lane>(
         }
     }
     (pixels, counts)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::AccelKind;
+    use crate::scene::{compile, Overrides, SceneSource};
+
+    /// Batches change when tiles are copied into the film, not what they hold: any batch
+    /// size gives the same pixels, bit for bit, and the same ray counts.
+    #[test]
+    fn the_film_does_not_depend_on_the_tile_batch() {
+        let source = SceneSource::builtin("cornell").unwrap();
+        let overrides = Overrides {
+            width: Some(72),
+            spp: Some(2),
+            max_depth: Some(3),
+        };
+        let mut scene = compile(&source, &source.parse().unwrap(), overrides).unwrap();
+        let accel = Accel::build(&mut scene, AccelKind::Bvh);
+        let settings = RenderSettings::default();
+        let at = |batch| render_in_batches(&scene, &accel, &settings, &|| {}, batch).unwrap();
+        let whole = at(TILE_BATCH);
+        // 72 pixels wide: 5 tiles a row, the last 8 pixels wide.
+        assert!(whole.film.pixels.len().div_ceil(256) < TILE_BATCH);
+        for batch in [1, 3, 7] {
+            let batched = at(batch);
+            assert_eq!(batched.counts, whole.counts);
+            let bits = |f: &Film| -> Vec<[u32; 3]> {
+                f.pixels
+                    .iter()
+                    .map(|p| p.to_array().map(f32::to_bits))
+                    .collect()
+            };
+            assert_eq!(bits(&batched.film), bits(&whole.film), "batch {batch}");
+        }
+    }
 }

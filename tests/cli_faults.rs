@@ -219,7 +219,7 @@ fn an_address_space_limit_refuses_the_image_before_the_render() {
     let dir = TempDir::new().unwrap();
     std::fs::write(dir.path().join("wide.toml"), WIDE).unwrap();
     let out = Command::new("prlimit")
-        .arg(format!("--as={}", 3584u64 << 20))
+        .arg(format!("--as={}", 2u64 << 30))
         .args([BIN, "wide.toml", "--width", "65536", "-o", "wide.png"])
         .current_dir(dir.path())
         .output()
@@ -228,7 +228,7 @@ fn an_address_space_limit_refuses_the_image_before_the_render() {
         &out,
         &[
             "wide.toml: a 65536x4096 image",
-            "about 6.0 GiB",
+            "about 3.0 GiB",
             "address-space limit",
         ],
     );
@@ -255,8 +255,8 @@ fn max_memory_caps_the_estimate() {
             .unwrap()
     };
     assert_refused(
-        &run("3.5G", "65536"),
-        &["--max-memory", "a 65536x4096 image", "the limit is 3.5 GiB"],
+        &run("2G", "65536"),
+        &["--max-memory", "a 65536x4096 image", "the limit is 2.0 GiB"],
     );
     assert_refused(&run("5X", "16"), &["--max-memory", "unknown unit 'X'"]);
     assert_eq!(names(dir.path()), ["wide.toml"]);

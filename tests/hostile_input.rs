@@ -533,17 +533,17 @@ fn an_image_over_the_budget_is_refused_with_its_estimate() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("scene.toml");
     std::fs::write(&path, text).unwrap();
-    let cap = Budget::cap(3584 << 20);
+    let cap = Budget::cap(2 << 30);
     let e = Scene::load_within(path.to_str().unwrap(), Overrides::default(), cap).unwrap_err();
     check_message(
         &chain(&e),
         &[
             "a 65536x4096 image",
-            "about 6.0 GiB",
-            "the limit is 3.5 GiB",
+            "about 3.0 GiB",
+            "the limit is 2.0 GiB",
         ],
     );
-    // 24 bytes a pixel: the same scene at 8192x512 fits 3.5 GiB.
+    // 12 bytes a pixel: the same scene at 8192x512 fits 2 GiB.
     let flags = Overrides {
         width: Some(8192),
         ..Overrides::default()
