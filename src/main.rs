@@ -23,17 +23,19 @@ fn main() -> ExitCode {
 }
 
 fn run() -> anyhow::Result<ExitCode> {
-    let (options, threads) = options::from_args(cli::args::Args::parse())?;
-    if let Options::List = options {
-        cli::list()?;
-        return Ok(ExitCode::SUCCESS);
-    }
-    // Before any output file exists: a SIGINT or SIGTERM from here on removes this run's
-    // temporary files, and those a killed run left in the output directories go now.
+    let args = cli::args::Args::parse();
+    // Before any file exists (checking the outputs creates probe files): a SIGINT or
+    // SIGTERM from here on removes this run's temporary files.
     #[cfg(unix)]
     output::install_signal_cleanup().map_err(|e| {
         anyhow::anyhow!("cannot start the thread that cleans up after a signal: {e}")
     })?;
+    let (options, threads) = options::from_args(args)?;
+    if let Options::List = options {
+        cli::list()?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    // Temporary files that a killed run left in the output directories.
     for dir in options.output_dirs() {
         let removed = output::remove_stale_temporaries(&dir);
         if !removed.is_empty() {
