@@ -158,6 +158,34 @@ fn geometry_beyond_the_coordinate_limit_is_refused_at_its_object() {
     );
 }
 
+/// A quad within the coordinate limit whose corners collapse onto a line in f32 (4 units
+/// at z = 1e10, where f32 numbers are 1024 apart) is refused: its edge test would see no
+/// area, and the packet and scalar tests disagreed on it (found by `scene_fuzz.rs`). A
+/// larger quad at the same place loads and renders the same bits at every width.
+#[test]
+fn a_quad_that_collapses_in_f32_is_refused() {
+    let cornell = builtin::scene("cornell").unwrap();
+    let quad = |v: &str| {
+        format!("{cornell}\n[[objects]]\ntype = \"quad\"\ncorner = [-2, -3, 1e10]\nu = [4, 0, 0]\nv = [0, 0, {v}]\nmaterial = \"white\"\n")
+    };
+    let quad_at = line_of(&quad("-4"), "corner = [-2, -3, 1e10]") - 2;
+    refused_with(
+        &quad("-4"),
+        &[
+            &format!("scene.toml:{quad_at}:1:"),
+            "object 10 (quad)",
+            "zero area in f32",
+            "[2, -3, 10000000000]",
+        ],
+    );
+    let small = Overrides {
+        width: Some(16),
+        spp: Some(2),
+        max_depth: Some(4),
+    };
+    renders_finite(&loads_with(&quad("-4096"), &[], small));
+}
+
 /// Many primitives (so each kind is in the BVH's tree) seen from far away: the issue's
 /// 64 triangles and 200 spheres seen from z = 1e39 are refused; at the limits (camera
 /// 9.9e5 from the origin, geometry reaching 1e10) the scene renders finite pixels, the

@@ -629,6 +629,16 @@ pub fn compile_within(
                     oerr("zero area: u and v must be non-zero and not parallel".into())
                 })?;
                 limits::derived_points("corner + u + v", &q.vertices).map_err(oerr)?;
+                // The edge test sees the vertices rounded to f32: far from the origin a
+                // small quad's collapse onto a line (a 4-unit quad at z = 1e10).
+                let [a, b, c, d] = q.vertices;
+                if !(is_proper_triangle([a, b, c]) && is_proper_triangle([a, c, d])) {
+                    return Err(oerr(format!(
+                        "zero area in f32: the corners round to {} (u and v too small for \
+                         the quad's distance from the origin)",
+                        show_points(&q.vertices)
+                    )));
+                }
                 quads.push(&q, id(), object);
                 bounds = bounds.union(q.bounds());
                 LightShape::Quads(vec![q])
@@ -699,6 +709,17 @@ pub fn compile_within(
                 budget.check(&after, &format!("{display}: {count} triangles{subdivided}"))?;
                 if *subdivide > 0 {
                     mesh.triangles = crate::generate::subdivide_times(&mesh.triangles, *subdivide);
+                    // Midpoints round to f32: far from the origin a small child may
+                    // collapse onto a line, and is dropped like a degenerate face.
+                    let before = mesh.triangles.len();
+                    mesh.triangles.retain(|&t| is_proper_triangle(t));
+                    degenerate_triangles += before - mesh.triangles.len();
+                    if mesh.triangles.is_empty() {
+                        return Err(oerr(format!(
+                            "{display}: no usable triangles after subdividing (each rounds \
+                             to zero area in f32)"
+                        )));
+                    }
                 }
                 for &tri in &mesh.triangles {
                     triangles.push(tri, id(), object);
@@ -919,6 +940,12 @@ fn compile_material(m: &MaterialDesc) -> Result<Material, String> {
             intensity: non_negative("intensity", intensity)?,
         },
     })
+}
+
+/// Points as the renderer sees them, for messages: `[-2, -3, 1e10], [2, -3, 1e10]`.
+fn show_points(points: &[Vec3]) -> String {
+    let show = |p: &Vec3| format!("[{}, {}, {}]", p.x, p.y, p.z);
+    points.iter().map(show).collect::<Vec<_>>().join(", ")
 }
 
 #[cfg(test)]
