@@ -24,6 +24,11 @@ fn main() -> ExitCode {
 
 fn run() -> anyhow::Result<ExitCode> {
     let args = cli::args::Args::parse();
+    // `--list` writes no file and needs no thread.
+    if args.command.is_none() && args.list {
+        cli::list()?;
+        return Ok(ExitCode::SUCCESS);
+    }
     // Before any file exists (checking the outputs creates probe files): a SIGINT or
     // SIGTERM from here on removes this run's temporary files.
     #[cfg(unix)]
@@ -31,10 +36,6 @@ fn run() -> anyhow::Result<ExitCode> {
         anyhow::anyhow!("cannot start the thread that cleans up after a signal: {e}")
     })?;
     let (options, threads) = options::from_args(args)?;
-    if let Options::List = options {
-        cli::list()?;
-        return Ok(ExitCode::SUCCESS);
-    }
     // Temporary files that a killed run left in the output directories.
     for dir in options.output_dirs() {
         let removed = output::remove_stale_temporaries(&dir);

@@ -170,7 +170,7 @@ fn a_full_stderr_does_not_fail_a_render() {
 }
 
 /// A process limit of 2 leaves no room for a worker thread beside the main thread and
-/// the signal cleanup's: exit 2. With 3, a run without `--threads` falls back to one
+/// the signal cleanup's: exit 2 (`--list`, which needs neither, runs under a limit of 1). With 3, a run without `--threads` falls back to one
 /// worker and renders the same image; with `--threads 2` it is refused naming the flag.
 #[test]
 fn a_process_limit_is_an_error_or_fewer_threads() {
@@ -193,6 +193,13 @@ fn a_process_limit_is_an_error_or_fewer_threads() {
         return;
     };
     assert_refused(&out, &["cannot start"]);
+    // --list needs no thread but the main one.
+    let list = unprivileged(dir.path(), Some("--nproc=1"), &["--list"])
+        .unwrap()
+        .output()
+        .unwrap();
+    assert_eq!(list.status.code(), Some(0), "{}", stderr(&list));
+    assert!(String::from_utf8_lossy(&list.stdout).contains("cornell"));
     let out = run("--nproc=3", &["-o", "three.png", "--threads", "2"]).unwrap();
     assert_refused(&out, &["cannot start 2 worker threads (--threads)"]);
     assert!(names(dir.path()).is_empty(), "{:?}", names(dir.path()));
