@@ -63,6 +63,8 @@ pub use settings::{PacketWidth, RenderSettings};
 #[doc(hidden)]
 pub mod accel;
 #[doc(hidden)]
+pub mod budget;
+#[doc(hidden)]
 pub mod camera;
 #[doc(hidden)]
 pub mod generate;

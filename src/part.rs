@@ -16,6 +16,7 @@
 
 use crate::error::{Error, Result};
 use crate::integrator::RayCounts;
+use crate::output::OutputSet;
 use crate::region::{Rect, Region};
 use crate::render::{RenderedRegion, TILE};
 use crate::scene::{LightShape, Scene, MAX_PIXELS};
@@ -360,7 +361,14 @@ impl Part {
     /// Write the part file to `path` (any name; `.part` by convention): a temporary file
     /// beside it renamed into place, so a failed or killed run leaves no part behind.
     pub fn write(&self, path: impl AsRef<Path>) -> Result<()> {
-        let path = path.as_ref();
+        let mut files = OutputSet::default();
+        self.add_to(&mut files, path.as_ref())?;
+        files.commit()
+    }
+
+    /// Write the part file to a temporary file that `files` renames to `path` when it is
+    /// committed, with the run's other outputs.
+    pub fn add_to(&self, files: &mut OutputSet, path: &Path) -> Result<()> {
         let pixels = &self.rendered.pixels;
         let mut sha = Sha256::new();
         for_each_payload_chunk(pixels, |bytes| {
@@ -377,7 +385,7 @@ impl Part {
             pixels_sha256: hex(&sha.finalize()),
         };
         let line = serde_json::to_string(&header).map_err(|e| part_error(path, e.to_string()))?;
-        crate::output::write_atomically(path, |out| {
+        files.add(path, |out| {
             out.write_all(MAGIC)?;
             out.write_all(line.as_bytes())?;
             out.write_all(b"\n")?;
@@ -478,6 +486,8 @@ pub fn scene_digest(scene: &Scene) -> String {
         wy,
         wz,
         vertices,
+        // The same vertices as `vertices`, by axis.
+        rows: _,
         plane,
         id,
         object,

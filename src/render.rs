@@ -219,3 +219,55 @@ fn render_tile_packets<L: Lane>(
     }
     counts
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::AccelKind;
+    use crate::scene::{compile, Overrides, SceneSource};
+
+    /// Where a pixel lands and in which order tiles are rendered change nothing: the
+    /// frame rendered as its tiles in reverse order, each a rectangle of its own, has
+    /// the bits and the ray counts of the frame rendered at once.
+    #[test]
+    fn the_film_does_not_depend_on_the_tile_order() {
+        let source = SceneSource::builtin("cornell").unwrap();
+        let overrides = Overrides {
+            width: Some(72),
+            spp: Some(2),
+            max_depth: Some(3),
+        };
+        let mut scene = compile(&source, &source.parse().unwrap(), overrides).unwrap();
+        let accel = Accel::build(&mut scene, AccelKind::Bvh);
+        let settings = RenderSettings::default();
+        let whole = render(&scene, &accel, &settings, &|| {}).unwrap();
+        let (w, h) = (scene.camera.width, scene.camera.height);
+        // 72 pixels wide: 5 tiles a row, the last 8 pixels wide.
+        let mut tiles: Vec<Rect> = (0..h.div_ceil(TILE))
+            .flat_map(|ty| {
+                (0..w.div_ceil(TILE)).map(move |tx| {
+                    let (x0, y0) = (tx * TILE, ty * TILE);
+                    Rect::new(x0, y0, (x0 + TILE).min(w), (y0 + TILE).min(h))
+                })
+            })
+            .collect();
+        tiles.reverse();
+        let mut pixels = vec![Vec3::ZERO; (w * h) as usize];
+        let counts = render_rects(&scene, &accel, &settings, &tiles, &mut pixels, &|| {});
+        assert_eq!(counts, whole.counts);
+        let mut film = vec![Vec3::NAN; (w * h) as usize];
+        let mut rest = pixels.as_slice();
+        for t in &tiles {
+            let (mine, next) = rest.split_at(t.pixel_count() as usize);
+            rest = next;
+            for (row, line) in mine.chunks_exact(t.width() as usize).enumerate() {
+                let start = ((t.y0 + row as u32) * w + t.x0) as usize;
+                film[start..start + line.len()].copy_from_slice(line);
+            }
+        }
+        let bits = |p: &[Vec3]| -> Vec<[u32; 3]> {
+            p.iter().map(|p| p.to_array().map(f32::to_bits)).collect()
+        };
+        assert_eq!(bits(&film), bits(&whole.film.pixels));
+    }
+}

@@ -3,6 +3,7 @@
 //! [`Film`].
 
 use crate::accel::{Accel, AccelKind};
+use crate::budget::{Budget, MemoryEstimate};
 use crate::error::Result;
 use crate::film::Film;
 use crate::integrator::RayCounts;
@@ -10,7 +11,7 @@ use crate::part::{self, Part, PixelSettings};
 use crate::region::Region;
 use crate::render;
 use crate::scene::desc::SceneDesc;
-use crate::scene::{builtin, compile, Overrides, Scene, SceneSource};
+use crate::scene::{builtin, compile_within, Overrides, Scene, SceneSource};
 use crate::settings::RenderSettings;
 use std::path::Path;
 use std::sync::OnceLock;
@@ -64,8 +65,8 @@ impl SceneFile {
     }
 }
 
-/// How a scene is compiled: values that replace the scene file's, and the acceleration
-/// structure to build.
+/// How a scene is compiled: values that replace the scene file's, the acceleration
+/// structure to build, and the memory it may take.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SceneOptions {
     /// Image width in pixels (1 to 65536); the height follows the scene's aspect ratio.
@@ -76,6 +77,11 @@ pub struct SceneOptions {
     pub max_depth: Option<u32>,
     /// The acceleration structure: the BVH by default.
     pub accel: AccelKind,
+    /// The bytes the scene, its acceleration structure and the image may take; `None`:
+    /// the machine's available memory (where the system says, else no limit). A scene
+    /// estimated to need more is refused with
+    /// [`Error::OutOfMemory`](crate::Error::OutOfMemory) before the memory is taken.
+    pub max_memory: Option<u64>,
 }
 
 /// A compiled scene and the acceleration structure built over it, ready to render any
@@ -104,14 +110,29 @@ pub struct Rendered {
 }
 
 impl Renderer {
-    /// Compile `file` with `options` and build its acceleration structure.
+    /// Compile `file` with `options` and build its acceleration structure, within the
+    /// memory `options` allows: the image, the geometry and the trees are estimated
+    /// before each is made (a mesh before it is read and before it is subdivided, the
+    /// trees before the build).
     pub fn new(file: &SceneFile, options: &SceneOptions) -> Result<Self> {
         let overrides = Overrides {
             width: options.width,
             spp: options.spp,
             max_depth: options.max_depth,
         };
-        let mut scene = compile(&file.source, &file.desc, overrides)?;
+        let budget = options.max_memory.map_or_else(Budget::machine, Budget::cap);
+        let mut scene = compile_within(&file.source, &file.desc, overrides, budget)?;
+        let bvh = options.accel == AccelKind::Bvh;
+        budget.check(
+            &MemoryEstimate::of_scene(&scene, bvh),
+            &format!(
+                "{}: a {}x{} image and {} primitives",
+                file.source.display,
+                scene.camera.width,
+                scene.camera.height,
+                scene.primitive_count()
+            ),
+        )?;
         let start = Instant::now();
         let accel = Accel::build(&mut scene, options.accel);
         Ok(Self {

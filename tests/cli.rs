@@ -839,6 +839,38 @@ fn report_is_a_directory() {
 }
 
 #[test]
+fn report_naming_the_scene_file_is_refused() {
+    Case::new(&["bad.toml", "--report", "bad.toml", "-o", "out.png"])
+        .file("bad.toml", BASE)
+        .fails_with(&["bad.toml", "the report would overwrite the scene file"]);
+}
+
+#[test]
+fn report_naming_the_image_is_refused() {
+    Case::new(&["bad.toml", "--report", "./out.png", "-o", "out.png"])
+        .file("bad.toml", BASE)
+        .fails_with(&["./out.png", "the report would overwrite the image out.png"]);
+}
+
+#[test]
+fn a_reference_that_is_not_an_image_is_a_read_error() {
+    Case::new(&[
+        "sweep",
+        "spheres",
+        "--width",
+        "8",
+        "--reference",
+        "ref.exr",
+        "--out",
+        "sweep",
+    ])
+    .file("ref.exr", "not an image")
+    .file("ref.json", "{}")
+    .dir("sweep")
+    .fails_with(&["cannot read ref.exr", "OpenExr"]);
+}
+
+#[test]
 fn failed_run_leaves_existing_output_unchanged() {
     let dir = TempDir::new().unwrap();
     let existing = dir.path().join("existing.png");

@@ -188,8 +188,9 @@ fn parts_of_different_widths_crops_and_png_merge() {
 
 #[test]
 fn a_region_has_the_bits_of_the_same_pixels_of_the_frame() {
-    // `mixed` has path-traced bounces; 37 px wide so packets straddle tile edges.
-    for name in ["mixed", "cornell", "bunny-closeup"] {
+    // `mixed` has path-traced bounces, `spheres-defocus` a lens; 37 px wide so packets
+    // straddle tile edges.
+    for name in ["mixed", "cornell", "bunny-closeup", "spheres-defocus"] {
         let mut scene = builtin(name, 37, 2);
         let accel = Accel::build(&mut scene, AccelKind::Bvh);
         let (w, h) = (scene.camera.width, scene.camera.height);

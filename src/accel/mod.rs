@@ -20,6 +20,18 @@ use bvh4::Bvh4;
 use linear::LinearScan;
 use packet::{PacketHits, RayPacket};
 
+/// Rays that reach a traversal are finite: a NaN or infinite origin or direction makes
+/// the slab test read every plane as "no constraint", so every slot of a node is
+/// entered, empty ones too. The scene's load-time limits (`scene::limits`) keep them
+/// finite; debug builds (the tests', the fuzzer's) check it at every query.
+#[inline(always)]
+fn debug_assert_finite(ray: &Ray) {
+    debug_assert!(
+        ray.origin.is_finite() && ray.dir.is_finite(),
+        "a non-finite ray reached the traversal: {ray:?}"
+    );
+}
+
 /// Which acceleration structure to build. Both give the same image, bit for bit.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum AccelKind {
@@ -139,6 +151,7 @@ impl Accel {
         t_max: f32,
         stats: &mut TraversalStats,
     ) -> Option<Hit> {
+        debug_assert_finite(ray);
         match self {
             Accel::Linear(l) => l.closest_hit(scene, ray, t_min, t_max, stats),
             Accel::Bvh(b) => b.closest_hit(scene, ray, t_min, t_max, stats),
@@ -157,6 +170,7 @@ impl Accel {
         light: &Light,
         stats: &mut TraversalStats,
     ) -> bool {
+        debug_assert_finite(ray);
         match self {
             Accel::Linear(l) => l
                 .closest_hit(scene, ray, t_min, f32::INFINITY, stats)
@@ -174,6 +188,7 @@ impl Accel {
         t_min: f32,
         stats: &mut TraversalStats,
     ) -> PacketHits<L> {
+        set_lanes(p.active).for_each(|k| debug_assert_finite(&p.ray(k)));
         match self {
             Accel::Linear(l) => {
                 let mut hits = PacketHits::none(p.active);
@@ -199,6 +214,7 @@ impl Accel {
         stats: &mut TraversalStats,
     ) -> u32 {
         let lanes = lanes & p.active;
+        set_lanes(lanes).for_each(|k| debug_assert_finite(&p.ray(k)));
         match self {
             Accel::Linear(_) => {
                 let mut visible = 0;

@@ -106,6 +106,41 @@ pub struct Args {
     /// (-o NAME.part, default <scene>-crop-X0-Y0-X1-Y1.part).
     #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_crop)]
     pub crop: Option<Rect>,
+
+    /// The memory the run may use, in bytes or with a unit (K, M, G, T: powers of 1024),
+    /// e.g. 4G or 1.5G: a scene and image estimated to need more are refused before the
+    /// memory is taken [default: the machine's available memory].
+    #[arg(long, value_parser = parse_bytes)]
+    pub max_memory: Option<u64>,
+}
+
+/// A byte count: a number, optionally with a unit (`K`, `M`, `G`, `T`, powers of 1024,
+/// also written `KiB`, `MB`, …). `1.5G` is 1.5 · 2³⁰ bytes, rounded down.
+pub fn parse_bytes(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (number, unit) = t.split_at(split);
+    let shift = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 0,
+        "k" | "kb" | "kib" => 10,
+        "m" | "mb" | "mib" => 20,
+        "g" | "gb" | "gib" => 30,
+        "t" | "tb" | "tib" => 40,
+        _ => return Err(format!("unknown unit '{unit}' (use K, M, G or T)")),
+    };
+    let value: f64 = number
+        .parse()
+        .map_err(|_| format!("'{text}' is not a number of bytes"))?;
+    let bytes = value * (1u64 << shift) as f64;
+    // Up to 2^63: beyond any machine's memory, and exact in u64.
+    if !(1.0..=9.2e18).contains(&bytes) {
+        return Err(format!(
+            "'{text}' must be at least 1 byte and at most 8 EiB"
+        ));
+    }
+    Ok(bytes as u64)
 }
 
 /// The subcommands: error against time, and merging part files.
@@ -264,5 +299,24 @@ impl From<Accel> for AccelKind {
             Accel::Linear => AccelKind::Linear,
             Accel::Bvh => AccelKind::Bvh,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_bytes;
+
+    #[test]
+    fn byte_counts_with_and_without_units() {
+        assert_eq!(parse_bytes("1000"), Ok(1000));
+        assert_eq!(parse_bytes("4K"), Ok(4096));
+        assert_eq!(parse_bytes("512M"), Ok(512 << 20));
+        assert_eq!(parse_bytes("512 MiB"), Ok(512 << 20));
+        assert_eq!(parse_bytes("1.5G"), Ok(3 << 29));
+        assert_eq!(parse_bytes("2t"), Ok(2 << 40));
+        for bad in ["", "G", "0", "0.1", "-1G", "1.2.3M", "5X", "1e3", "9E"] {
+            assert!(parse_bytes(bad).is_err(), "{bad}");
+        }
+        assert!(parse_bytes("8388608T").is_err());
     }
 }

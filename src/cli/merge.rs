@@ -10,7 +10,7 @@ pub fn run(o: &MergeOptions) -> anyhow::Result<()> {
     let merged = raytracer::merge_parts(&o.parts)?;
     merged.film.write(&o.output)?;
     if o.notes {
-        eprintln!(
+        to_stderr!(
             "merged {} parts of {} ({}x{}, {} spp) in {:.3} s -> {}",
             o.parts.len(),
             merged.scene,

@@ -1,5 +1,6 @@
 //! Validated options: what the parsed flags mean, checked before any long work (the
-//! output's format and directory, the report's directory), with defaults filled in.
+//! output's format, that every output file can be written, that the report replaces
+//! neither the scene file nor the image), with defaults filled in.
 
 use super::args::{self, Args};
 use super::scene_stem;
@@ -62,6 +63,25 @@ pub struct SweepOptions {
     pub reference_spp: u32,
 }
 
+impl Options {
+    /// The directories the command writes files into, where a killed run may have left
+    /// temporary files (`output::remove_stale_temporaries`).
+    pub fn output_dirs(&self) -> Vec<PathBuf> {
+        let mut dirs: Vec<PathBuf> = match self {
+            Options::List => Vec::new(),
+            Options::Merge(o) => vec![output::directory_of(&o.output)],
+            Options::Render(o) => std::iter::once(&o.output)
+                .chain(&o.report)
+                .map(|p| output::directory_of(p))
+                .collect(),
+            Options::Reference(o) => vec![output::directory_of(&o.output)],
+            Options::Sweep(o) => vec![output::directory_of(&o.reference), o.out.clone()],
+        };
+        dirs.dedup();
+        dirs
+    }
+}
+
 /// `raytracer merge`.
 #[derive(Debug)]
 pub struct MergeOptions {
@@ -117,6 +137,10 @@ fn render(args: Args) -> anyhow::Result<RenderOptions> {
     output::check_writable(&output)?;
     if let Some(report) = &args.report {
         output::check_writable(report)?;
+        // A scene argument that names a file (not a built-in scene).
+        let scene_path = Path::new(&scene);
+        let scene_file = scene_path.is_file().then_some(scene_path);
+        output::check_distinct_outputs(scene_file, &output, report)?;
     }
     Ok(RenderOptions {
         scene,
@@ -125,6 +149,7 @@ fn render(args: Args) -> anyhow::Result<RenderOptions> {
             spp: args.spp,
             max_depth: args.max_depth,
             accel: args.accel.into(),
+            max_memory: args.max_memory,
         },
         settings: RenderSettings {
             seed: args.seed,

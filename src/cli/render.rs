@@ -1,11 +1,13 @@
 //! Render one scene: load, build, render on the current pool (with a progress bar on a
-//! terminal), write the image (or the part file of a region), then the report, the
-//! statistics and the summary line.
+//! terminal), write the image (or the part file of a region) and the report together
+//! (all or nothing), then the statistics and the summary line.
 
 use super::options::RenderOptions;
 use super::{report, stats};
 use anyhow::Context;
-use raytracer::{PacketWidth, Part, RayCounts, Region, Rendered, Renderer};
+use raytracer::budget::Limit;
+use raytracer::output::OutputSet;
+use raytracer::{Error, PacketWidth, Part, RayCounts, Region, Rendered, Renderer};
 use std::io::IsTerminal;
 use std::time::{Duration, Instant};
 
@@ -43,10 +45,16 @@ enum Pixels {
 pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
     let start = Instant::now();
     if o.settings.packet_width == PacketWidth::Eight && !raytracer::lanes::AVX2 && o.notes {
-        eprintln!("note: built without AVX2: 8-wide packets run as two 4-wide halves");
+        to_stderr!("note: built without AVX2: 8-wide packets run as two 4-wide halves");
     }
     let file = super::scene_file(&o.scene)?;
-    let renderer = Renderer::new(&file, &o.scene_options)?;
+    let renderer = Renderer::new(&file, &o.scene_options).map_err(|e| match e {
+        Error::OutOfMemory {
+            limited_by: Limit::Cap,
+            ..
+        } => anyhow::Error::new(e).context("--max-memory"),
+        e => e.into(),
+    })?;
     let built = Instant::now();
     // The region's tiles; a crop outside the image is refused here, before the render.
     let tiles = match o.region {
@@ -80,17 +88,20 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
     }
     let rendered_at = Instant::now();
 
+    // The image (or part) and the report are written to temporary files, then renamed
+    // into place together: a failure leaves neither, and no earlier file is replaced.
+    let mut files = OutputSet::default();
     let (counts, non_finite) = match &pixels {
         Pixels::Frame(rendered) => {
-            rendered.film.write(&o.output)?;
+            files.add_image(&rendered.film, &o.output)?;
             (rendered.counts, rendered.film.non_finite_count())
         }
         Pixels::Part(part) => {
-            part.write(&o.output)?;
+            part.add_to(&mut files, &o.output)?;
             (part.counts(), part.non_finite_count())
         }
     };
-    let run = Run {
+    let mut run = Run {
         options: o,
         renderer: &renderer,
         counts,
@@ -105,8 +116,14 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
         },
     };
     if let Some(path) = &o.report {
-        report::write(path, &run)?;
+        let json = report::json(&run)?;
+        files.add(path, |out| {
+            use std::io::Write;
+            writeln!(out, "{json}")
+        })?;
     }
+    files.commit()?;
+    run.timings.write = rendered_at.elapsed();
     if o.stats {
         stats::print(&run);
     }
@@ -135,13 +152,13 @@ fn progress_bar(tiles: u64) -> Option<indicatif::ProgressBar> {
 fn summary(run: &Run) {
     let (r, counts) = (run.renderer, run.counts);
     if run.non_finite > 0 {
-        eprintln!(
+        to_stderr!(
             "warning: {} pixels had a NaN or infinite value",
             run.non_finite
         );
     }
     let render_s = run.timings.render.as_secs_f64();
-    eprintln!(
+    to_stderr!(
         "{}: {}{}x{}, {} spp, {:.3} s render ({:.3} s total), {:.2} M rays, {:.1} Mrays/s -> {}",
         r.name(),
         run.options

@@ -1,9 +1,8 @@
-//! `--report FILE`: sizes, timings and ray counts of a run as JSON, written atomically.
+//! `--report FILE`: sizes, timings and ray counts of a run as JSON, written with the
+//! image (`cli::render`).
 
 use super::render::Run;
-use raytracer::output;
 use raytracer::RayCounts;
-use std::path::Path;
 
 /// The `--report` JSON.
 #[derive(Debug, serde::Serialize)]
@@ -67,8 +66,9 @@ impl From<RayCounts> for Rays {
     }
 }
 
-/// Write the report of `run` to `path`.
-pub fn write(path: &Path, run: &Run) -> anyhow::Result<()> {
+/// The report of `run`, as JSON. The write time is the image's encoding (the report is
+/// written with it).
+pub fn json(run: &Run) -> anyhow::Result<String> {
     let (r, t) = (run.renderer, run.timings);
     let report = Report {
         scene: r.name(),
@@ -90,10 +90,5 @@ pub fn write(path: &Path, run: &Run) -> anyhow::Result<()> {
         region: run.options.region.map(|r| r.to_string()),
         non_finite_pixels: run.non_finite,
     };
-    let json = serde_json::to_string_pretty(&report)?;
-    output::write_atomically(path, |out| {
-        use std::io::Write;
-        writeln!(out, "{json}")
-    })?;
-    Ok(())
+    Ok(serde_json::to_string_pretty(&report)?)
 }
