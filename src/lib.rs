@@ -48,7 +48,7 @@ pub use error::{Error, Result};
 pub use film::Film;
 pub use glam::Vec3;
 pub use integrator::RayCounts;
-pub use merge::{merge_parts, Merged};
+pub use merge::{merge_parts, merge_parts_within, Merged};
 pub use part::Part;
 pub use region::{Rect, Region};
 pub use renderer::{Rendered, Renderer, SceneFile, SceneOptions};

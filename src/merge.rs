@@ -7,10 +7,12 @@
 //! file whole (its pixels' length and checksum) into the frame, one at a time, so the
 //! memory is the frame, one bit a pixel and one part.
 
+use crate::budget::{Budget, MemoryEstimate};
 use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::part::{self, PartHeader, MAGIC, MAX_HEADER};
 use crate::region::{Rect, Region};
+use crate::scene::{input, MAX_PIXELS};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
@@ -32,10 +34,22 @@ pub struct Merged {
 /// from another scene, setting or program version, a truncated or corrupt file.
 ///
 /// Every header is checked before the frame is allocated; then the parts are read one at
-/// a time, so the memory is the frame, one bit a pixel and one part.
+/// a time, so the memory is the frame, one bit a pixel and one part. That memory must fit
+/// the machine's free memory ([`Budget::machine`]); [`merge_parts_within`] takes another
+/// budget.
 ///
 /// [`Part::write`]: crate::Part::write
 pub fn merge_parts<P: AsRef<Path>>(paths: &[P]) -> Result<Merged> {
+    merge_parts_within(paths, Budget::machine())
+}
+
+/// The largest part file: a header and 12 bytes a pixel of the largest frame.
+const MAX_PART_BYTES: u64 = (MAGIC.len() + MAX_HEADER + 1) as u64 + 12 * MAX_PIXELS;
+
+/// [`merge_parts`] within `budget`: a merge estimated to need more memory (the frame,
+/// the coverage bits and the largest part file) is refused with
+/// [`Error::OutOfMemory`] before the frame is allocated.
+pub fn merge_parts_within<P: AsRef<Path>>(paths: &[P], budget: Budget) -> Result<Merged> {
     let paths: Vec<PathBuf> = paths.iter().map(|p| p.as_ref().to_path_buf()).collect();
     let paths = &paths[..];
     let Some(first_path) = paths.first() else {
@@ -49,7 +63,12 @@ pub fn merge_parts<P: AsRef<Path>>(paths: &[P]) -> Result<Merged> {
     // The headers.
     let mut headers: Vec<part::Header> = Vec::with_capacity(paths.len());
     let mut coverage: Option<Coverage> = None;
+    let mut largest = 0;
     for path in paths {
+        // A regular file, checked before it is opened (opening a FIFO blocks).
+        let size =
+            input::check_file(path, MAX_PART_BYTES, "part file").map_err(|e| io_error(path, e))?;
+        largest = largest.max(size);
         let mut start = Vec::new();
         std::fs::File::open(path)
             .and_then(|f| {
@@ -81,10 +100,27 @@ pub fn merge_parts<P: AsRef<Path>>(paths: &[P]) -> Result<Merged> {
 
     // The pixels.
     let first = &headers[0].header;
-    let width = first.settings.width;
-    let mut film = Film::new(width, first.settings.height)?;
+    let (width, height) = (first.settings.width, first.settings.height);
+    let pixels = width as u64 * height as u64;
+    let estimate = MemoryEstimate {
+        image: pixels * 12 + pixels.div_ceil(8),
+        loading: largest,
+        ..Default::default()
+    };
+    budget.check(
+        &estimate,
+        &format!(
+            "merging {} parts into a {width}x{height} frame",
+            paths.len()
+        ),
+    )?;
+    let mut film = Film::new(width, height)?;
     for (path, h) in paths.iter().zip(&headers) {
-        let bytes = std::fs::read(path).map_err(|e| io_error(path, e))?;
+        let mut bytes = Vec::new();
+        input::check_file(path, MAX_PART_BYTES, "part file")
+            .and_then(|_| std::fs::File::open(path))
+            .and_then(|f| f.take(MAX_PART_BYTES + 1).read_to_end(&mut bytes))
+            .map_err(|e| io_error(path, e))?;
         let part = part::parse_part(&bytes).map_err(|m| part::part_error(path, m))?;
         if part.header != h.header {
             return Err(part::part_error(path, "changed while it was being merged"));

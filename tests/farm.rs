@@ -756,6 +756,66 @@ fn merge_output_must_be_an_image_that_can_be_written() {
     }
 }
 
+/// A part that is not a regular file is refused before it is opened (a FIFO would block),
+/// the frame may not replace one of its parts, and `--max-memory` refuses a merge that
+/// needs more, naming the flag.
+#[test]
+fn merge_refuses_special_files_its_own_parts_and_too_little_memory() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    good_parts(d);
+    std::fs::create_dir(d.join("dir.part")).unwrap();
+    merge_fails(
+        d,
+        &["p0.part", "p1.part", "dir.part", "p3.part"],
+        &["dir.part", "not a regular file (a directory)"],
+    );
+    #[cfg(unix)]
+    {
+        let fifo = d.join("fifo.part");
+        let made = Command::new("mkfifo").arg(&fifo).status();
+        if made.is_ok_and(|s| s.success()) {
+            merge_fails(
+                d,
+                &["p0.part", "p1.part", "fifo.part", "p3.part"],
+                &["fifo.part", "not a regular file (a FIFO)"],
+            );
+            std::fs::remove_file(&fifo).unwrap();
+        }
+    }
+    merge_fails(
+        d,
+        &[
+            "p0.part",
+            "p1.part",
+            "p2.part",
+            "p3.part",
+            "--max-memory",
+            "1M",
+        ],
+        &[
+            "--max-memory",
+            "not enough memory for merging 4 parts into a 100x56 frame",
+        ],
+    );
+    // A part named like an image, and the same file as the output.
+    std::fs::copy(d.join("p2.part"), d.join("p2.exr")).unwrap();
+    let before = snapshot(d);
+    let run = run_in(
+        d,
+        &[
+            "merge", "p0.part", "p1.part", "p2.exr", "p3.part", "-o", "./p2.exr",
+        ],
+    );
+    assert_eq!(run.code, Some(2), "{}", run.stderr);
+    assert!(
+        run.stderr.contains("is the part file p2.exr"),
+        "{}",
+        run.stderr
+    );
+    assert!(snapshot(d) == before);
+}
+
 // ---------------------------------------------------------------------------------------
 // The reader on any bytes.
 

@@ -165,6 +165,11 @@ pub struct MergeArgs {
     /// Output image: .exr (linear f32, the bits of a one-process render), .png or .ppm.
     #[arg(short, long)]
     pub output: PathBuf,
+    /// The memory the merge may use (as for rendering): a frame and part estimated to
+    /// need more are refused before the memory is taken [default: the machine's
+    /// available memory].
+    #[arg(long, value_parser = parse_bytes)]
+    pub max_memory: Option<u64>,
     /// No summary line.
     #[arg(short, long)]
     pub quiet: bool,

@@ -87,6 +87,8 @@ impl Options {
 pub struct MergeOptions {
     pub parts: Vec<PathBuf>,
     pub output: PathBuf,
+    /// `--max-memory` (`None`: the machine's free memory).
+    pub max_memory: Option<u64>,
     /// The summary line (off with `--quiet`).
     pub notes: bool,
 }
@@ -182,10 +184,25 @@ fn default_output(stem: &str, region: Option<Region>) -> PathBuf {
 
 fn merge(m: args::MergeArgs) -> anyhow::Result<MergeOptions> {
     ImageFormat::for_path(&m.output)?;
+    // The frame must not replace one of its parts.
+    if let Ok(out) = std::fs::canonicalize(&m.output) {
+        if let Some(part) = m
+            .parts
+            .iter()
+            .find(|p| std::fs::canonicalize(p).is_ok_and(|p| p == out))
+        {
+            anyhow::bail!(
+                "-o {} is the part file {}: the merged frame would replace it",
+                m.output.display(),
+                part.display()
+            );
+        }
+    }
     output::check_writable(&m.output)?;
     Ok(MergeOptions {
         parts: m.parts,
         output: m.output,
+        max_memory: m.max_memory,
         notes: !m.quiet,
     })
 }
