@@ -1,6 +1,7 @@
 //! The library's error type. Every variant names what the user has to fix: the file and
 //! line of a scene or OBJ, the setting, or the output path.
 
+use crate::budget::{human, Limit, MemoryEstimate};
 use std::path::PathBuf;
 
 /// What went wrong, with the file, line and column where there is one. `{}` prints one
@@ -78,6 +79,42 @@ pub enum Error {
         path: PathBuf,
         /// Why.
         message: String,
+    },
+
+    /// A part file that cannot be used: malformed, truncated, corrupt, or from another
+    /// scene, setting or program than the parts it is merged with, or overlapping one.
+    #[error("{}: {message}", path.display())]
+    Part {
+        /// The part file.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
+
+    /// Part files that together do not make a frame (pixels that no part holds).
+    #[error("{0}")]
+    Merge(String),
+
+    /// The memory budget refused an estimate before the memory was taken.
+    #[error(
+        "not enough memory for {what}: it needs about {} (image {}, geometry {}, BVH {}, loading {}), and {}",
+        human(estimate.total()),
+        human(estimate.image),
+        human(estimate.geometry),
+        human(estimate.bvh),
+        human(estimate.loading),
+        limited_by.describe(*limit)
+    )]
+    OutOfMemory {
+        /// What was being made ("the scene", "the image").
+        what: String,
+        /// The bytes it would take, by part.
+        estimate: MemoryEstimate,
+        /// The bytes allowed.
+        limit: u64,
+        /// What sets the limit: the machine's free memory, a cgroup, `ulimit -v`, or a
+        /// cap the caller gave.
+        limited_by: Limit,
     },
 }
 

@@ -30,11 +30,16 @@
 //! [`SceneFile::builtin`] loads the scenes the `raytracer` command knows by name, and
 //! [`SceneOptions`] replaces a scene's width, samples per pixel or depth.
 //! [`Renderer::render`] runs on the current rayon thread pool.
+//!
+//! A frame can be farmed out: [`Renderer::render_part`] renders one [`Region`] of it (part
+//! I of N, or a crop window) into a [`Part`], written as a part file anywhere, and
+//! [`merge_parts`] checks the part files and puts them together into the frame's bits.
 
 #![warn(missing_docs)]
 
 mod error;
 mod film;
+mod region;
 mod renderer;
 mod settings;
 
@@ -43,6 +48,9 @@ pub use error::{Error, Result};
 pub use film::Film;
 pub use glam::Vec3;
 pub use integrator::RayCounts;
+pub use merge::{merge_parts, merge_parts_within, Merged};
+pub use part::Part;
+pub use region::{Rect, Region};
 pub use renderer::{Rendered, Renderer, SceneFile, SceneOptions};
 pub use rng::SamplerKind;
 pub use settings::{PacketWidth, RenderSettings};
@@ -54,6 +62,8 @@ pub use settings::{PacketWidth, RenderSettings};
 // the API: they change without notice.
 #[doc(hidden)]
 pub mod accel;
+#[doc(hidden)]
+pub mod budget;
 #[doc(hidden)]
 pub mod camera;
 #[doc(hidden)]
@@ -67,9 +77,13 @@ pub mod lanes;
 #[doc(hidden)]
 pub mod material;
 #[doc(hidden)]
+pub mod merge;
+#[doc(hidden)]
 pub mod metrics;
 #[doc(hidden)]
 pub mod output;
+#[doc(hidden)]
+pub mod part;
 #[doc(hidden)]
 pub mod render;
 #[doc(hidden)]

@@ -3,14 +3,18 @@
 //! [`Film`].
 
 use crate::accel::{Accel, AccelKind};
+use crate::budget::{Budget, MemoryEstimate};
 use crate::error::Result;
 use crate::film::Film;
 use crate::integrator::RayCounts;
+use crate::part::{self, Part, PixelSettings};
+use crate::region::Region;
 use crate::render;
 use crate::scene::desc::SceneDesc;
-use crate::scene::{builtin, compile, Overrides, Scene, SceneSource};
+use crate::scene::{builtin, compile_within, Overrides, Scene, SceneSource};
 use crate::settings::RenderSettings;
 use std::path::Path;
+use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 /// A scene file, read and parsed: its TOML syntax and keys are checked (errors name the
@@ -61,8 +65,8 @@ impl SceneFile {
     }
 }
 
-/// How a scene is compiled: values that replace the scene file's, and the acceleration
-/// structure to build.
+/// How a scene is compiled: values that replace the scene file's, the acceleration
+/// structure to build, and the memory it may take.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SceneOptions {
     /// Image width in pixels (1 to 65536); the height follows the scene's aspect ratio.
@@ -73,6 +77,11 @@ pub struct SceneOptions {
     pub max_depth: Option<u32>,
     /// The acceleration structure: the BVH by default.
     pub accel: AccelKind,
+    /// The bytes the scene, its acceleration structure and the image may take; `None`:
+    /// the machine's available memory (where the system says, else no limit). A scene
+    /// estimated to need more is refused with
+    /// [`Error::OutOfMemory`](crate::Error::OutOfMemory) before the memory is taken.
+    pub max_memory: Option<u64>,
 }
 
 /// A compiled scene and the acceleration structure built over it, ready to render any
@@ -87,6 +96,8 @@ pub struct Renderer {
     scene: Scene,
     accel: Accel,
     build_time: Duration,
+    /// `part::scene_digest`, taken by the first part rendered.
+    digest: OnceLock<String>,
 }
 
 /// A film and the rays traced to make it.
@@ -99,20 +110,36 @@ pub struct Rendered {
 }
 
 impl Renderer {
-    /// Compile `file` with `options` and build its acceleration structure.
+    /// Compile `file` with `options` and build its acceleration structure, within the
+    /// memory `options` allows: the image, the geometry and the trees are estimated
+    /// before each is made (a mesh before it is read and before it is subdivided, the
+    /// trees before the build).
     pub fn new(file: &SceneFile, options: &SceneOptions) -> Result<Self> {
         let overrides = Overrides {
             width: options.width,
             spp: options.spp,
             max_depth: options.max_depth,
         };
-        let mut scene = compile(&file.source, &file.desc, overrides)?;
+        let budget = options.max_memory.map_or_else(Budget::machine, Budget::cap);
+        let mut scene = compile_within(&file.source, &file.desc, overrides, budget)?;
+        let bvh = options.accel == AccelKind::Bvh;
+        budget.check(
+            &MemoryEstimate::of_scene(&scene, bvh),
+            &format!(
+                "{}: a {}x{} image and {} primitives",
+                file.source.display,
+                scene.camera.width,
+                scene.camera.height,
+                scene.primitive_count()
+            ),
+        )?;
         let start = Instant::now();
         let accel = Accel::build(&mut scene, options.accel);
         Ok(Self {
             scene,
             accel,
             build_time: start.elapsed(),
+            digest: OnceLock::new(),
         })
     }
 
@@ -165,6 +192,55 @@ impl Renderer {
     /// Tiles a render calls `on_tile` for.
     pub fn tiles(&self) -> u32 {
         self.width().div_ceil(render::TILE) * self.height().div_ceil(render::TILE)
+    }
+
+    /// Render only the pixels of `region`, to write as a part file and merge with the
+    /// frame's other parts ([`merge_parts`](crate::merge_parts)); each pixel has the bits
+    /// of the same pixel of [`Renderer::render`] with the same settings.
+    /// [`Error::Options`](crate::Error::Options) for a region outside the image.
+    ///
+    /// ```
+    /// use raytracer::{merge_parts, Region, RenderSettings, Renderer};
+    ///
+    /// let renderer = Renderer::from_toml(r#"
+    ///     background = [0.6, 0.7, 0.9]
+    ///     camera = { width = 40, aspect_ratio = 2.0, samples_per_pixel = 2 }
+    ///     materials.grey = { type = "diffuse", albedo = [0.5, 0.5, 0.5] }
+    ///     objects = [{ type = "sphere", center = [0, 0, -2], radius = 0.5, material = "grey" }]
+    /// "#)?;
+    /// let settings = RenderSettings::default();
+    /// let dir = std::env::temp_dir().join(format!("raytracer-parts-{}", std::process::id()));
+    /// std::fs::create_dir_all(&dir)?;
+    /// let mut files = Vec::new();
+    /// for index in 0..3 {
+    ///     let part = renderer.render_part(&settings, Region::Part { index, count: 3 })?;
+    ///     let file = dir.join(format!("part-{index}.part"));
+    ///     part.write(&file)?;
+    ///     files.push(file);
+    /// }
+    /// let merged = merge_parts(&files)?;
+    /// assert_eq!(merged.film, renderer.render(&settings)?);
+    /// # std::fs::remove_dir_all(&dir)?;
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn render_part(&self, settings: &RenderSettings, region: Region) -> Result<Part> {
+        self.render_part_with_progress(settings, region, &|| {})
+    }
+
+    /// [`Renderer::render_part`], calling `on_tile` after each tile (from any thread).
+    pub fn render_part_with_progress(
+        &self,
+        settings: &RenderSettings,
+        region: Region,
+        on_tile: &(dyn Fn() + Sync),
+    ) -> Result<Part> {
+        let rendered = render::render_region(&self.scene, &self.accel, settings, region, on_tile)?;
+        Ok(Part::new(
+            rendered,
+            self.name(),
+            self.digest.get_or_init(|| part::scene_digest(&self.scene)),
+            PixelSettings::new(&self.scene, settings),
+        ))
     }
 
     /// The compiled scene, for the command line's statistics and the tests.

@@ -319,6 +319,7 @@ impl Dimension {
         match s {
             slot::JITTER_X | slot::JITTER_Y => one(slot::JITTER_X, s - slot::JITTER_X),
             slot::SCATTER_A | slot::SCATTER_B => one(slot::SCATTER_A, s - slot::SCATTER_A),
+            slot::LENS_X | slot::LENS_Y => one(slot::LENS_X, s - slot::LENS_X),
             _ if s < slot::LIGHT_BASE => one(s, 0),
             _ => {
                 // slot::light(light, k, c): c = 0 picks the primitive (one dimension),
@@ -480,6 +481,10 @@ pub mod slot {
     pub const SCATTER_A: u32 = 2;
     pub const SCATTER_B: u32 = 3;
     pub const SCATTER_CHOICE: u32 = 4;
+    /// The point of the lens disk a camera ray starts from (vertex 0 only; a pinhole
+    /// camera draws none).
+    pub const LENS_X: u32 = 5;
+    pub const LENS_Y: u32 = 6;
     /// Light samples: three numbers (primitive choice, two surface coordinates) for
     /// sample `k` of light `light`, starting at this slot.
     pub const LIGHT_BASE: u32 = 8;
@@ -522,6 +527,7 @@ mod tests {
                 }
                 for (vertex, sl) in [
                     (0, slot::JITTER_Y),
+                    (0, slot::LENS_X),
                     (2, slot::SCATTER_B),
                     (1, slot::light(1, 7, 2)),
                 ] {
@@ -630,16 +636,20 @@ mod tests {
         assert_eq!(d(3, 9, 1).draws, MAX_LIGHT_SAMPLES);
         assert_eq!(Dimension::of(slot::JITTER_Y).pair, slot::JITTER_X);
         assert_eq!(Dimension::of(slot::SCATTER_CHOICE).component, 0);
+        assert_eq!(Dimension::of(slot::LENS_Y).pair, slot::LENS_X);
+        assert_eq!(Dimension::of(slot::LENS_Y).component, 1);
+        assert_ne!(Dimension::of(slot::LENS_X).pair, slot::JITTER_X);
     }
 
-    /// The points of the jitter pair of one pixel, as grid cells of a `cols` × `rows` grid.
-    fn cells(kind: SamplerKind, spp: u32, cols: u32, rows: u32) -> Vec<(u32, u32)> {
+    /// The points of the pair of slots `pair`, `pair + 1` (jitter or lens) of one pixel,
+    /// as grid cells of a `cols` × `rows` grid.
+    fn cells_of(pair: u32, kind: SamplerKind, spp: u32, cols: u32, rows: u32) -> Vec<(u32, u32)> {
         let sampler = Sampler::new(kind, 3, spp);
         (0..spp)
             .map(|s| {
                 let k = sampler.key(10, 20, s);
-                let x = k.uniform(0, slot::JITTER_X);
-                let y = k.uniform(0, slot::JITTER_Y);
+                let x = k.uniform(0, pair);
+                let y = k.uniform(0, pair + 1);
                 ((x * cols as f32) as u32, (y * rows as f32) as u32)
             })
             .collect()
@@ -660,10 +670,12 @@ mod tests {
             let n = 1u32 << k;
             for j in 0..=k {
                 let (cols, rows) = (1 << j, 1 << (k - j));
-                assert!(
-                    all_distinct(cells(SamplerKind::Sobol, n, cols, rows)),
-                    "{k} {j}"
-                );
+                for pair in [slot::JITTER_X, slot::LENS_X] {
+                    assert!(
+                        all_distinct(cells_of(pair, SamplerKind::Sobol, n, cols, rows)),
+                        "{k} {j} {pair}"
+                    );
+                }
             }
         }
         // Light draws: spp 8 × 10 draws = 80 points; the first 64 are a net.
@@ -687,20 +699,36 @@ mod tests {
 
     #[test]
     fn stratified_fills_its_strata() {
-        for n in [1, 2, 7, 10, 16, 25] {
-            // Component 0 (x here): one point per 1/n stratum.
-            assert!(all_distinct(cells(SamplerKind::Stratified, n, n, 1)), "{n}");
-            // Component 1 (y): one point per cell of the m × ⌈n/m⌉ fine grid.
-            let m = (n as f32).sqrt() as u32;
-            let fine = m * n.div_ceil(m);
-            assert!(
-                all_distinct(cells(SamplerKind::Stratified, n, 1, fine)),
-                "{n}"
-            );
-            // x, y: one point per coarse cell of an m × m grid when n = m².
-            if m * m == n {
-                assert!(all_distinct(cells(SamplerKind::Stratified, n, m, m)), "{n}");
+        for pair in [slot::JITTER_X, slot::LENS_X] {
+            let cells = |spp, cols, rows| cells_of(pair, SamplerKind::Stratified, spp, cols, rows);
+            for n in [1, 2, 7, 10, 16, 25] {
+                // Component 0 (x here): one point per 1/n stratum.
+                assert!(all_distinct(cells(n, n, 1)), "{n} {pair}");
+                // Component 1 (y): one point per cell of the m × ⌈n/m⌉ fine grid.
+                let m = (n as f32).sqrt() as u32;
+                let fine = m * n.div_ceil(m);
+                assert!(all_distinct(cells(n, 1, fine)), "{n} {pair}");
+                // x, y: one point per coarse cell of an m × m grid when n = m².
+                if m * m == n {
+                    assert!(all_distinct(cells(n, m, m)), "{n} {pair}");
+                }
             }
+        }
+    }
+
+    /// The lens pair has its own numbers: not the jitter's, for any sampler.
+    #[test]
+    fn lens_and_jitter_pairs_differ() {
+        for kind in SamplerKind::ALL {
+            let sampler = Sampler::new(kind, 5, 16);
+            let same = (0..16)
+                .filter(|&s| {
+                    let k = sampler.key(3, 4, s);
+                    k.uniform(0, slot::LENS_X) == k.uniform(0, slot::JITTER_X)
+                        || k.uniform(0, slot::LENS_Y) == k.uniform(0, slot::JITTER_Y)
+                })
+                .count();
+            assert_eq!(same, 0, "{kind:?}");
         }
     }
 

@@ -59,6 +59,7 @@ fn renderer_renders_the_internal_path_bit_for_bit() {
             spp: Some(2),
             max_depth: Some(3),
             accel,
+            max_memory: None,
         };
         let renderer = Renderer::new(&SceneFile::builtin(name).unwrap(), &options).unwrap();
         assert_eq!(renderer.name(), name);
@@ -147,6 +148,36 @@ fn errors_name_the_place() {
         Renderer::new(&file, &options),
         Err(Error::Scene { .. })
     ));
+}
+
+/// `max_memory` caps what a renderer may take: the image and the scene are estimated
+/// before they are made, and a larger estimate is `OutOfMemory`, naming it.
+#[test]
+fn a_memory_cap_refuses_a_scene_before_it_is_made() {
+    use raytracer::budget;
+    let file = SceneFile::from_toml(TOML).unwrap();
+    let at = |max_memory: u64| {
+        let options = SceneOptions {
+            width: Some(4096),
+            max_memory: Some(max_memory),
+            ..SceneOptions::default()
+        };
+        Renderer::new(&file, &options)
+    };
+    // The program and a 4096x2048 image, without the two spheres: refused.
+    let image = budget::BASE_BYTES + 4096 * 2048 * budget::RENDER_BYTES_PER_PIXEL;
+    match at(image) {
+        Err(e @ Error::OutOfMemory { .. }) => {
+            let message = e.to_string();
+            assert!(message.contains("4096x2048 image"), "{message}");
+            let limit = format!("the limit is {}", budget::human(image));
+            assert!(message.contains(&limit), "{message}");
+        }
+        other => panic!("expected OutOfMemory, got {other:?}"),
+    }
+    // With a kilobyte for the spheres and their tree: made.
+    let renderer = at(image + 1024).unwrap();
+    assert_eq!((renderer.width(), renderer.height()), (4096, 2048));
 }
 
 /// `Film::write` writes what `to_rgb8` gives (PPM) and the linear values bit for bit

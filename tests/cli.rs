@@ -481,6 +481,49 @@ fn vfov_nan() {
     Case::scene(&edit("vfov = 90", "vfov = nan")).fails_with(&[CAMERA_LINE, "vfov"]);
 }
 
+/// The lens keys out of range: exit 2, the message at the value's line and column
+/// (line 12 of BASE with the key added after `look_at`).
+#[test]
+fn lens_values_out_of_range() {
+    let cases = [
+        ("defocus_angle = -1", "12:17:", "defocus_angle"),
+        ("defocus_angle = -1e-300", "12:17:", "defocus_angle"),
+        ("defocus_angle = 180", "12:17:", "defocus_angle"),
+        ("defocus_angle = 1e9", "12:17:", "defocus_angle"),
+        ("defocus_angle = nan", "12:17:", "defocus_angle"),
+        ("defocus_angle = inf", "12:17:", "defocus_angle"),
+        ("focus_dist = 0", "12:14:", "focus_dist"),
+        ("focus_dist = -0.0", "12:14:", "focus_dist"),
+        ("focus_dist = -2", "12:14:", "focus_dist"),
+        ("focus_dist = nan", "12:14:", "focus_dist"),
+        ("focus_dist = inf", "12:14:", "focus_dist"),
+        ("focus_dist = -inf", "12:14:", "focus_dist"),
+        // The viewport overflows f32; it lies too near the eye for f32 to tell apart.
+        ("focus_dist = 1e300", "12:14:", "too large"),
+        ("focus_dist = 1e-30", "12:14:", "at least"),
+    ];
+    for (line, at, what) in cases {
+        let text = edit(
+            "look_at = [0, 0, -1]",
+            &format!("look_at = [0, 0, -1]\n{line}"),
+        );
+        Case::scene(&text).fails_with(&[&format!("bad.toml:{at}"), what]);
+    }
+    // Relative to the camera's coordinates: 2⁻²⁰ of 1000 is about 9.5e-4.
+    let far = edit("look_from = [0, 0, 0]", "look_from = [1000, 0, 0]");
+    let near = far.replace(
+        "look_at = [0, 0, -1]",
+        "look_at = [0, 0, -1]\nfocus_dist = 1e-4",
+    );
+    Case::scene(&near).fails_with(&["bad.toml:12:14:", "focus_dist", "at least"]);
+    // A wide lens reaches far from the eye: the same rule.
+    let wide = near.replace(
+        "focus_dist = 1e-4",
+        "focus_dist = 0.01\ndefocus_angle = 179.9999",
+    );
+    Case::scene(&wide).fails_with(&["bad.toml:12:14:", "focus_dist", "at least"]);
+}
+
 #[test]
 fn aspect_ratio_zero() {
     Case::scene(&edit("aspect_ratio = 1.0", "aspect_ratio = 0.0"))
@@ -793,6 +836,38 @@ fn report_is_a_directory() {
         .file("bad.toml", BASE)
         .dir("report.json")
         .fails_with(&["report.json", "directory"]);
+}
+
+#[test]
+fn report_naming_the_scene_file_is_refused() {
+    Case::new(&["bad.toml", "--report", "bad.toml", "-o", "out.png"])
+        .file("bad.toml", BASE)
+        .fails_with(&["bad.toml", "the report would overwrite the scene file"]);
+}
+
+#[test]
+fn report_naming_the_image_is_refused() {
+    Case::new(&["bad.toml", "--report", "./out.png", "-o", "out.png"])
+        .file("bad.toml", BASE)
+        .fails_with(&["./out.png", "the report would overwrite the image out.png"]);
+}
+
+#[test]
+fn a_reference_that_is_not_an_image_is_a_read_error() {
+    Case::new(&[
+        "sweep",
+        "spheres",
+        "--width",
+        "8",
+        "--reference",
+        "ref.exr",
+        "--out",
+        "sweep",
+    ])
+    .file("ref.exr", "not an image")
+    .file("ref.json", "{}")
+    .dir("sweep")
+    .fails_with(&["cannot read ref.exr", "OpenExr"]);
 }
 
 #[test]

@@ -26,7 +26,7 @@ const SPP: &str = "32";
 /// A gallery image stays small in the repository.
 const MAX_BYTES: u64 = 64 * 1024;
 /// The scenes with a test of their own below: every built-in scene.
-const SCENES: [&str; 8] = [
+const SCENES: [&str; 9] = [
     "bunny",
     "bunny-closeup",
     "cornell",
@@ -35,6 +35,7 @@ const SCENES: [&str; 8] = [
     "mixed",
     "quads",
     "spheres",
+    "spheres-defocus",
 ];
 
 fn gallery() -> PathBuf {
@@ -162,4 +163,9 @@ fn quads() {
 #[test]
 fn spheres() {
     renders_as_committed("spheres");
+}
+
+#[test]
+fn spheres_defocus() {
+    renders_as_committed("spheres-defocus");
 }

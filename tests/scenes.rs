@@ -150,7 +150,12 @@ fn the_embree_comparison_scenes_cut_down_the_builtin_ones() {
         let full = Scene::load(builtin_name, Overrides::default()).unwrap();
         let cam = |s: &Scene| {
             let c = &s.camera;
-            (c.width, c.height, c.origin, c.ray(17, 29, 0.25, 0.75))
+            (
+                c.width,
+                c.height,
+                c.origin,
+                c.ray(17, 29, 0.25, 0.75, 0.5, 0.5),
+            )
         };
         assert_eq!(cam(&cut), cam(&full), "{file}: camera");
         assert_eq!(cut.spp, full.spp, "{file}");

@@ -593,7 +593,7 @@ fn acne(scene: &Scene, accel: &Accel) -> (u64, u64) {
     let (mut bad, mut checked) = (0, 0);
     for y in 0..scene.camera.height {
         for x in 0..scene.camera.width {
-            let ray = scene.camera.ray(x, y, 0.5, 0.5);
+            let ray = scene.camera.ray(x, y, 0.5, 0.5, 0.5, 0.5);
             let Some(hit) = tracer.closest_hit(&ray, &mut counts) else {
                 continue;
             };

@@ -42,6 +42,8 @@ pub fn camera_rays(scene: &Scene, spp: u32) -> Vec<Ray> {
                     y,
                     key.uniform(0, slot::JITTER_X),
                     key.uniform(0, slot::JITTER_Y),
+                    key.uniform(0, slot::LENS_X),
+                    key.uniform(0, slot::LENS_Y),
                 ));
             }
         }
@@ -71,6 +73,8 @@ pub fn camera_packets(scene: &Scene, width: usize) -> Vec<Packet> {
                             y,
                             key.uniform(0, slot::JITTER_X),
                             key.uniform(0, slot::JITTER_Y),
+                            key.uniform(0, slot::LENS_X),
+                            key.uniform(0, slot::LENS_Y),
                         );
                         active |= 1 << k;
                     }

@@ -9,15 +9,14 @@
 //! widths share them.
 
 use super::build::{self, BuildTree, NodeId, PrimRef};
-use super::linear::{self, PrimRay};
 use super::TraversalStats;
 use crate::geometry::quad::QuadLanes;
 use crate::geometry::spawn::gamma;
-use crate::geometry::sphere::{sphere_distance, SpherePool, SphereRay};
+use crate::geometry::sphere::{sphere_distance, sphere_intersect_with, SpherePool, SphereRay};
 use crate::geometry::triangle::{Columns, WatertightRay};
 use crate::geometry::{beats, Aabb, Hit, PrimKind, Ray};
 use crate::lanes::{set_lanes, Lane, V3};
-use crate::scene::Scene;
+use crate::scene::{Light, LightShape, Scene};
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
@@ -247,7 +246,7 @@ pub struct Bvh4 {
     /// Code of the root (an inner node index or a leaf), `None` when no kind is in the tree.
     pub root: Option<u32>,
     /// The same tree collapsed to 8-wide nodes (the same leaves), which single rays
-    /// trace (`closest_hit`), and its root's code.
+    /// trace (`closest_hit`, `occluded`), and its root's code.
     pub nodes8: Vec<Node8>,
     pub root8: Option<u32>,
     /// The primitives of each kind tested in a loop beside the tree (index: sphere,
@@ -375,9 +374,10 @@ impl BoxRay {
 /// same IEEE quotients, so the same bits), with the triangle test's computed at the first
 /// triangle leaf: most camera rays of `bunny` miss the mesh's box, and the axis choice,
 /// its two divisions and the pool pointers they select cost ~100 instructions a ray
-/// (callgrind). 1/dx, 1/dy, 1/dz and 1/(d·d) are one vector divide.
+/// (callgrind). 1/dx, 1/dy, 1/dz and 1/(d·d) are one vector divide. Shadow rays
+/// (`Bvh4::light_visible`) share them between the light's own hit and the occluders.
 #[derive(Clone, Copy, Debug)]
-struct RayConsts<'r> {
+pub(crate) struct RayConsts<'r> {
     /// Borrowed, not copied: a copy was stored in pieces and read back whole, a failed
     /// store-to-load forward on every ray (perf: 11% of the `bunny` camera-ray time).
     ray: &'r Ray,
@@ -386,8 +386,17 @@ struct RayConsts<'r> {
 }
 
 impl<'r> RayConsts<'r> {
+    /// The constants, and the box test's for the 4-wide tree (which the lanes a packet
+    /// finishes alone traverse).
     #[inline(always)]
-    fn new(ray: &'r Ray) -> (RayConsts<'r>, BoxRay8) {
+    pub(crate) fn with_box4(ray: &'r Ray) -> (RayConsts<'r>, BoxRay) {
+        let (consts, q) = Self::with_reciprocals(ray);
+        (consts, BoxRay::from_inv(ray, q.truncate()))
+    }
+
+    /// The constants and (1/dx, 1/dy, 1/dz, 1/(d·d)).
+    #[inline(always)]
+    fn with_reciprocals(ray: &'r Ray) -> (RayConsts<'r>, Vec4) {
         let d = ray.dir;
         let a = d.dot(d);
         let q = Vec4::ONE / Vec4::new(d.x, d.y, d.z, a);
@@ -402,16 +411,7 @@ impl<'r> RayConsts<'r> {
             sphere,
             triangle: None,
         };
-        (consts, BoxRay8::from_inv(ray, q))
-    }
-
-    #[inline(always)]
-    fn from_prim(pray: &'r PrimRay) -> RayConsts<'r> {
-        RayConsts {
-            ray: &pray.ray,
-            sphere: pray.sphere,
-            triangle: Some(pray.triangle),
-        }
+        (consts, q)
     }
 
     #[inline(always)]
@@ -557,10 +557,10 @@ impl Closest {
                 }
             }
             PrimKind::Quad => {
-                let q = &scene.quads;
-                let (ray, tri) = (consts.ray, *consts.triangle());
+                let (q, ray) = (&scene.quads, consts.ray);
                 for i in range {
-                    if let Some(t) = q.intersect(i, ray, &tri, t_min, self.t_max) {
+                    let w = || *consts.triangle();
+                    if let Some(t) = q.intersect_lazy(i, ray, w, t_min, self.t_max) {
                         self.offer(t, q.id[i], kind, i);
                     }
                 }
@@ -740,7 +740,8 @@ impl Bvh4 {
         t_max: f32,
         stats: &mut TraversalStats,
     ) -> Option<Hit> {
-        let (mut consts, bray) = RayConsts::new(ray);
+        let (mut consts, q) = RayConsts::with_reciprocals(ray);
+        let bray = BoxRay8::from_inv(ray, q);
         let mut c = Closest::new(t_max, &None);
         // The tree first, the spheres beside it after: their test (a square root and a
         // division) then does not delay the root's box test, which would wait for the
@@ -820,17 +821,17 @@ impl Bvh4 {
     ) {
         if !self.linear[1].is_empty() {
             stats.prims += self.linear[1].len() as u64;
-            let q = &scene.quads;
-            let (ray, w) = (consts.ray, *consts.triangle());
+            let (q, ray) = (&scene.quads, consts.ray);
             for group in &self.linear_quads {
+                let w = || *consts.triangle();
                 if group.is_single() {
                     let i = group.indices().start;
-                    if let Some(t) = q.intersect(i, ray, &w, t_min, c.t_max) {
+                    if let Some(t) = q.intersect_lazy(i, ray, w, t_min, c.t_max) {
                         c.offer(t, q.id[i], PrimKind::Quad, i);
                     }
                     continue;
                 }
-                let (t, mask) = group.intersect(q, ray, &w, t_min, c.t_max);
+                let (t, mask) = group.intersect(q, ray, w, t_min, c.t_max);
                 c.offer_lanes(&t, mask, group.indices().start, &q.id, PrimKind::Quad);
             }
         }
@@ -845,11 +846,11 @@ impl Bvh4 {
     /// shrinking `t_max`. The packet traversal finishes lanes with it.
     #[allow(clippy::too_many_arguments)]
     #[inline]
-    pub fn closest_hit_from(
+    pub(crate) fn closest_hit_from(
         &self,
         scene: &Scene,
         root: u32,
-        pray: &PrimRay,
+        consts: &mut RayConsts<'_>,
         bray: &BoxRay,
         t_min: f32,
         t_max: &mut f32,
@@ -857,17 +858,7 @@ impl Bvh4 {
         stats: &mut TraversalStats,
     ) {
         let mut c = Closest::new(*t_max, best);
-        let mut consts = RayConsts::from_prim(pray);
-        traverse(
-            &self.nodes,
-            scene,
-            root,
-            &mut consts,
-            bray,
-            t_min,
-            &mut c,
-            stats,
-        );
+        traverse(&self.nodes, scene, root, consts, bray, t_min, &mut c, stats);
         *t_max = c.t_max;
         if let Some(h) = c.hit(scene) {
             *best = Some(h);
@@ -887,29 +878,86 @@ impl Bvh4 {
         object: u32,
         stats: &mut TraversalStats,
     ) -> bool {
-        let pray = PrimRay::new(ray);
-        self.occluded_prim(scene, &pray, t_min, t_light, id_light, object, stats)
+        let (mut consts, q) = RayConsts::with_reciprocals(ray);
+        self.occluded_consts(
+            scene,
+            &mut consts,
+            q,
+            t_min,
+            t_light,
+            id_light,
+            object,
+            stats,
+        )
     }
 
-    /// `occluded` with the ray's per-primitive constants already made.
-    #[allow(clippy::too_many_arguments)]
-    pub fn occluded_prim(
+    /// The seed's shadow test (`Accel::light_visible`): the light's own nearest hit,
+    /// then any occluder before it. The ray's constants are made once for both; the
+    /// watertight ones only for a quad or triangle that needs them (a point light, the
+    /// spheres and a quad whose plane the ray does not meet before the light need none:
+    /// `mixed` and `spheres` shadow rays test no triangle or quad edges at all).
+    pub fn light_visible(
         &self,
         scene: &Scene,
-        pray: &PrimRay,
+        ray: &Ray,
+        t_min: f32,
+        light: &Light,
+        stats: &mut TraversalStats,
+    ) -> bool {
+        let (mut consts, q) = RayConsts::with_reciprocals(ray);
+        let own = match light.shape {
+            LightShape::Point { center, radius } => {
+                sphere_intersect_with(center, radius, &consts.sphere, t_min, f32::INFINITY)
+                    .map(|t| (t, light.first_id))
+            }
+            _ => light.nearest_hit_watertight(ray, consts.triangle(), t_min),
+        };
+        let Some((t_light, id_light)) = own else {
+            return false;
+        };
+        !self.occluded_consts(
+            scene,
+            &mut consts,
+            q,
+            t_min,
+            t_light,
+            id_light,
+            light.object,
+            stats,
+        )
+    }
+
+    /// `occluded` with the ray's constants and reciprocals `q` (`with_reciprocals`)
+    /// made: beside the tree, then through the 8-wide tree (fewer nodes a ray than the
+    /// 4-wide one, as for closest hits), whose box constants are made only then.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn occluded_consts(
+        &self,
+        scene: &Scene,
+        consts: &mut RayConsts<'_>,
+        q: Vec4,
         t_min: f32,
         t_light: f32,
         id_light: u32,
         object: u32,
         stats: &mut TraversalStats,
     ) -> bool {
-        if self.occluded_beside(scene, pray, t_min, t_light, id_light, object, stats) {
+        if self.occluded_beside(scene, consts, t_min, t_light, id_light, object, stats) {
             return true;
         }
-        let Some(root) = self.root else { return false };
-        let bray = BoxRay::new(&pray.ray);
-        self.occluded_from(
-            scene, root, pray, &bray, t_min, t_light, id_light, object, stats,
+        let Some(root) = self.root8 else { return false };
+        let bray = BoxRay8::from_inv(consts.ray, q);
+        let light = (t_light, id_light, object);
+        occluded_in(
+            &self.nodes8,
+            scene,
+            root,
+            consts,
+            &bray,
+            t_min,
+            light,
+            stats,
         )
     }
 
@@ -920,7 +968,7 @@ impl Bvh4 {
     fn occluded_beside(
         &self,
         scene: &Scene,
-        pray: &PrimRay,
+        consts: &mut RayConsts<'_>,
         t_min: f32,
         t_light: f32,
         id_light: u32,
@@ -933,7 +981,7 @@ impl Bvh4 {
         let spheres = &self.linear[0];
         if !spheres.is_empty() {
             stats.prims += spheres.len() as u64;
-            let (s, r) = (&scene.spheres, &pray.sphere);
+            let (s, r) = (&scene.spheres, &consts.sphere);
             for (g, lanes) in self.linear_spheres.iter().enumerate() {
                 let (t, hit) = sphere_distance(
                     lanes.center,
@@ -955,17 +1003,18 @@ impl Bvh4 {
         }
         if !self.linear[1].is_empty() {
             stats.prims += self.linear[1].len() as u64;
-            let q = &scene.quads;
+            let (q, ray) = (&scene.quads, consts.ray);
             for group in &self.linear_quads {
                 let first = group.indices().start;
+                let w = || *consts.triangle();
                 if group.is_single() {
-                    let hit = q.intersect(first, &pray.ray, &pray.triangle, t_min, t_light);
+                    let hit = q.intersect_lazy(first, ray, w, t_min, t_light);
                     if hit.is_some_and(|t| occludes(t, q.id[first], q.object[first])) {
                         return true;
                     }
                     continue;
                 }
-                let (t, mask) = group.intersect(q, &pray.ray, &pray.triangle, t_min, t_light);
+                let (t, mask) = group.intersect(q, ray, w, t_min, t_light);
                 if set_lanes(mask).any(|k| occludes(t[k], q.id[first + k], q.object[first + k])) {
                     return true;
                 }
@@ -975,21 +1024,26 @@ impl Bvh4 {
         if !range.is_empty() {
             stats.prims += range.len() as u64;
             let kind = PrimKind::Triangle;
-            if linear::occludes_range(scene, kind, range, pray, t_min, t_light, id_light, object) {
+            let mut cols = None;
+            if occludes_range(
+                scene, kind, range, consts, &mut cols, t_min, t_light, id_light, object,
+            ) {
                 return true;
             }
         }
         false
     }
 
-    /// `occluded` in the subtree `root` only.
+    /// `occluded` in the subtree `root` (of the 4-wide tree) only: the packets' lanes
+    /// that finish alone. Out of line: inlined into the shading loop with the packet
+    /// traversal, it cost the 8-wide renders up to 1.4% more instructions (callgrind).
     #[allow(clippy::too_many_arguments)]
-    #[inline]
-    pub fn occluded_from(
+    #[inline(never)]
+    pub(crate) fn occluded_from(
         &self,
         scene: &Scene,
         root: u32,
-        pray: &PrimRay,
+        consts: &mut RayConsts<'_>,
         bray: &BoxRay,
         t_min: f32,
         t_light: f32,
@@ -997,35 +1051,144 @@ impl Bvh4 {
         object: u32,
         stats: &mut TraversalStats,
     ) -> bool {
-        let mut stack = [MaybeUninit::<u32>::uninit(); STACK_SIZE];
-        stack[0].write(root);
-        let mut sp = 1;
-        while sp > 0 {
-            sp -= 1;
-            // SAFETY: as in `closest_hit_from`, only written slots are read.
-            let code = unsafe { stack[sp].assume_init() };
-            if code & LEAF != 0 {
-                let (kind, start, count) = decode_leaf(code);
-                stats.prims += count as u64;
-                let range = start as usize..(start + count) as usize;
-                if linear::occludes_range(
-                    scene, kind, range, pray, t_min, t_light, id_light, object,
-                ) {
-                    return true;
-                }
-                continue;
-            }
-            stats.nodes += 1;
-            let node = &self.nodes[code as usize];
-            let (_, mut mask) = bray.test(node, t_min, t_light);
-            while mask != 0 {
-                let i = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                stack[sp].write(node.child[i]);
+        let light = (t_light, id_light, object);
+        occluded_in(&self.nodes, scene, root, consts, bray, t_min, light, stats)
+    }
+}
+
+/// The scalar any-hit traversal of `tree` from `root`: is there a primitive of another
+/// object than the light's `object` that beats `(t_light, id_light)` in `[t_min,
+/// t_light]`? Of the children a node's box test hits, the leaves are tested there and
+/// the inner nodes pushed (no order: the first occluder ends the search), so a leaf
+/// costs no push and pop.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn occluded_in<N: Wide>(
+    tree: &[N],
+    scene: &Scene,
+    root: u32,
+    consts: &mut RayConsts<'_>,
+    bray: &N::Ray,
+    t_min: f32,
+    light: (f32, u32, u32),
+    stats: &mut TraversalStats,
+) -> bool {
+    // The triangle columns in this ray's axis order, at the first triangle leaf.
+    let mut cols = None;
+    if root & LEAF != 0 {
+        return leaf_occludes(scene, root, consts, &mut cols, t_min, light, stats);
+    }
+    let mut stack = [MaybeUninit::<u32>::uninit(); STACK_SIZE];
+    let mut sp = 0;
+    let mut code = root;
+    loop {
+        stats.nodes += 1;
+        let node = &tree[code as usize];
+        let (_, mut mask) = node.test(bray, t_min, light.0);
+        while mask != 0 {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let child = node.child(i);
+            if child & LEAF == 0 {
+                stack[sp].write(child);
                 sp += 1;
+            } else if leaf_occludes(scene, child, consts, &mut cols, t_min, light, stats) {
+                return true;
             }
         }
-        false
+        if sp == 0 {
+            return false;
+        }
+        sp -= 1;
+        // SAFETY: as in `traverse`, only written slots are read.
+        code = unsafe { stack[sp].assume_init() };
+    }
+}
+
+/// `occludes_range` on the leaf `code`'s primitives.
+#[inline(always)]
+fn leaf_occludes<'s>(
+    scene: &'s Scene,
+    code: u32,
+    consts: &mut RayConsts<'_>,
+    cols: &mut Option<Columns<'s>>,
+    t_min: f32,
+    (t_light, id_light, object): (f32, u32, u32),
+    stats: &mut TraversalStats,
+) -> bool {
+    let (kind, start, count) = decode_leaf(code);
+    stats.prims += count as u64;
+    let range = start as usize..(start + count) as usize;
+    occludes_range(
+        scene, kind, range, consts, cols, t_min, t_light, id_light, object,
+    )
+}
+
+/// Does a primitive in `range` of another object than `object` beat `(t_light,
+/// id_light)` in `[t_min, t_light]`? Spheres and quads one at a time (a quad's plane
+/// first, `QuadPool::intersect_lazy`), triangles four at a time through the columns
+/// `cols` of the ray's axis order (looked up at the ray's first triangle leaf).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn occludes_range<'s>(
+    scene: &'s Scene,
+    kind: PrimKind,
+    range: Range<usize>,
+    consts: &mut RayConsts<'_>,
+    cols: &mut Option<Columns<'s>>,
+    t_min: f32,
+    t_light: f32,
+    id_light: u32,
+    object: u32,
+) -> bool {
+    let beats = |t: f32, id: u32| t < t_light || id < id_light;
+    match kind {
+        // Plain loops: as `Iterator::any` the quads' loop was left out of line, a call
+        // per leaf (callgrind, the scalar `cornell` render).
+        PrimKind::Sphere => {
+            let s = &scene.spheres;
+            for i in range {
+                if s.object[i] != object
+                    && s.intersect(i, &consts.sphere, t_min, t_light)
+                        .is_some_and(|t| beats(t, s.id[i]))
+                {
+                    return true;
+                }
+            }
+            false
+        }
+        PrimKind::Quad => {
+            let (q, ray) = (&scene.quads, consts.ray);
+            for i in range {
+                if q.object[i] != object
+                    && q.intersect_lazy(i, ray, || *consts.triangle(), t_min, t_light)
+                        .is_some_and(|t| beats(t, q.id[i]))
+                {
+                    return true;
+                }
+            }
+            false
+        }
+        PrimKind::Triangle => {
+            let tri = &scene.triangles;
+            let w = *consts.triangle();
+            let cols = cols.get_or_insert_with(|| tri.columns(w.axes));
+            let mut start = range.start;
+            while start < range.end {
+                let n = (range.end - start).min(4);
+                let (t, mut mask) = tri.intersect4_in(cols, start, n, &w, t_min, t_light);
+                while mask != 0 {
+                    let k = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let i = start + k;
+                    if tri.object[i] != object && beats(t[k], tri.id[i]) {
+                        return true;
+                    }
+                }
+                start += n;
+            }
+            false
+        }
     }
 }
 

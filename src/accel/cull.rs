@@ -93,6 +93,48 @@ impl Cone {
         })
     }
 
+    /// A cone holding every ray that starts within `lens` of `centre` and passes within
+    /// `spread` of a point of the convex hull of `targets`: a camera's rays from its lens
+    /// disk (any point, f32 rounding included, lies within `lens` of the lens's centre)
+    /// through a rectangle of the viewport (each point's f32 rounding within `spread`).
+    /// `None` as for `through`, or when the widened directions span half a space.
+    ///
+    /// Why it holds them: with the cone `through` the target directions (axis a), a
+    /// direction t − l = (t − centre) + b, |b| ≤ lens + spread = r, lies within
+    /// asin(r / |t − centre|) of its target's direction, so within θ = max over the
+    /// targets of that plus the target's angle to a; a convex combination of such
+    /// directions (the hull's) is inside the cone of half-angle θ too. Moving the apex
+    /// back along the axis by lens / sin θ puts the whole lens ball inside that cone, so
+    /// every ray (a point of the cone plus a direction of it) stays in it. With `lens`
+    /// zero the apex is `centre`.
+    pub fn through_lens(centre: DVec3, lens: f64, targets: &[DVec3], spread: f64) -> Option<Cone> {
+        let dirs: Vec<DVec3> = targets.iter().map(|t| *t - centre).collect();
+        let inner = Cone::through(centre, &dirs)?;
+        let r = lens + spread;
+        let mut angle = 0.0f64;
+        for d in &dirs {
+            let len = d.length();
+            if !(r.is_finite() && r < len) {
+                return None;
+            }
+            let own = (inner.axis.dot(*d) / len).clamp(-1.0, 1.0).acos();
+            angle = angle.max(own + (r / len).asin());
+        }
+        if angle.is_nan() || angle >= std::f64::consts::FRAC_PI_2 {
+            return None;
+        }
+        let back = if lens > 0.0 { lens / angle.sin() } else { 0.0 };
+        let apex = centre - inner.axis * back;
+        if !apex.is_finite() {
+            return None;
+        }
+        Some(Cone {
+            apex,
+            axis: inner.axis,
+            angle: angle + MARGIN,
+        })
+    }
+
     /// Whether a ray of the cone can meet the ball of `center` and `radius`: the
     /// direction to the centre is within the half-angle plus the ball's angular radius.
     pub fn may_meet(&self, center: DVec3, radius: f64) -> bool {
@@ -252,6 +294,78 @@ mod tests {
             kept_hits > 500 && ruled_out > 500,
             "{kept_hits} {ruled_out}"
         );
+    }
+
+    /// Rays from random points of a lens ball through random points of the targets'
+    /// hull widened by `spread` (in f64): every point of every ray, near the lens and
+    /// far beyond the targets, is inside the cone without its margin.
+    /// And the cone is not wide for nothing: its half-angle is at most the pinhole
+    /// cone's plus twice the lens's and spread's angular size.
+    #[test]
+    fn a_lens_cone_holds_every_ray_from_the_lens_through_the_targets() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut checked = 0;
+        for _ in 0..300 {
+            let centre = DVec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 20.0;
+            let axis = DVec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize();
+            let (s, t) = axis.any_orthonormal_pair();
+            let distance = 0.5 + 5.0 * next();
+            let (half_w, half_h) = (0.4 * next() + 0.01, 0.4 * next() + 0.01);
+            let off = (s * (next() - 0.5) + t * (next() - 0.5)) * distance;
+            let mid = centre + axis * distance + off;
+            let targets: Vec<DVec3> = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+                .iter()
+                .map(|&(a, b)| mid + s * (a * half_w) + t * (b * half_h))
+                .collect();
+            let lens = if next() < 0.2 {
+                0.0
+            } else {
+                0.3 * next() * distance
+            };
+            let spread = 1e-3 * next();
+            let cone = Cone::through_lens(centre, lens, &targets, spread).unwrap();
+            let dirs: Vec<DVec3> = targets.iter().map(|p| *p - centre).collect();
+            let pinhole = Cone::through(centre, &dirs).unwrap();
+            let widening = 2.0 * ((lens + spread) / (distance * 0.5)).asin() + 2.0 * MARGIN;
+            assert!(
+                cone.angle <= pinhole.angle + widening,
+                "{cone:?} {pinhole:?}"
+            );
+            for _ in 0..50 {
+                // A point of the lens ball and one of the widened hull.
+                let ball = |r: f64, next: &mut dyn FnMut() -> f64| loop {
+                    let v = DVec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 2.0;
+                    if v.length() <= 1.0 {
+                        break v * r;
+                    }
+                };
+                let l = centre + ball(lens, &mut next);
+                let (a, b) = (next(), next());
+                let hull = (targets[0] * (1.0 - a) + targets[1] * a) * (1.0 - b)
+                    + (targets[3] * (1.0 - a) + targets[2] * a) * b;
+                let p = hull + ball(spread, &mut next);
+                for k in [0.0, 1e-3, 0.5, 1.0, 3.0, 1e3] {
+                    // Inside without the margin: the angle from the apex to the point.
+                    let v = l + (p - l) * k - cone.apex;
+                    if v.length() == 0.0 {
+                        continue;
+                    }
+                    let beta = (cone.axis.dot(v) / v.length()).clamp(-1.0, 1.0).acos();
+                    assert!(
+                        beta <= cone.angle - MARGIN + 1e-12,
+                        "{cone:?}: {beta} (ray {l} to {p}, at {k})"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 80_000, "{checked}");
     }
 
     #[test]

@@ -1,5 +1,4 @@
-//! The brute-force scan, the seed's algorithm, kept to measure the BVH against; and the
-//! per-kind primitive loops that the BVH's leaves share with it.
+//! The brute-force scan, the seed's algorithm, kept to measure the BVH against.
 
 use super::TraversalStats;
 use crate::geometry::aabb::SlabRay;
@@ -108,9 +107,8 @@ impl LinearScan {
 }
 
 /// Closest-hit over `range` of one kind's pool, shrinking `t_max` as hits are found.
-#[allow(clippy::too_many_arguments)]
 #[inline]
-pub fn intersect_range(
+fn intersect_range(
     scene: &Scene,
     kind: PrimKind,
     range: Range<usize>,
@@ -157,58 +155,6 @@ pub fn intersect_range(
                 }
                 start += n;
             }
-        }
-    }
-}
-
-/// Does a primitive in `range` of another object than `object` beat `(t_light, id_light)`?
-#[allow(clippy::too_many_arguments)]
-#[inline]
-pub fn occludes_range(
-    scene: &Scene,
-    kind: PrimKind,
-    range: Range<usize>,
-    ray: &PrimRay,
-    t_min: f32,
-    t_light: f32,
-    id_light: u32,
-    object: u32,
-) -> bool {
-    let beats = |t: f32, id: u32| t < t_light || id < id_light;
-    match kind {
-        PrimKind::Sphere => {
-            let s = &scene.spheres;
-            range.into_iter().any(|i| {
-                s.object[i] != object
-                    && s.intersect(i, &ray.sphere, t_min, t_light)
-                        .is_some_and(|t| beats(t, s.id[i]))
-            })
-        }
-        PrimKind::Quad => {
-            let q = &scene.quads;
-            range.into_iter().any(|i| {
-                q.object[i] != object
-                    && q.intersect(i, &ray.ray, &ray.triangle, t_min, t_light)
-                        .is_some_and(|t| beats(t, q.id[i]))
-            })
-        }
-        PrimKind::Triangle => {
-            let tri = &scene.triangles;
-            let mut start = range.start;
-            while start < range.end {
-                let n = (range.end - start).min(4);
-                let (t, mut mask) = tri.intersect4(start, n, &ray.triangle, t_min, t_light);
-                while mask != 0 {
-                    let k = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    let i = start + k;
-                    if tri.object[i] != object && beats(t[k], tri.id[i]) {
-                        return true;
-                    }
-                }
-                start += n;
-            }
-            false
         }
     }
 }

@@ -16,10 +16,22 @@ pub mod packet;
 
 use crate::geometry::{Hit, Ray};
 use crate::lanes::{set_lanes, Lane};
-use crate::scene::{Light, LightShape, Scene};
+use crate::scene::{Light, Scene};
 use bvh4::Bvh4;
-use linear::{LinearScan, PrimRay};
-use packet::{PacketHits, RayPacket, MAX_WIDTH};
+use linear::LinearScan;
+use packet::{PacketHits, RayPacket};
+
+/// Rays that reach a traversal are finite: a NaN or infinite origin or direction makes
+/// the slab test read every plane as "no constraint", so every slot of a node is
+/// entered, empty ones too. The scene's load-time limits (`scene::limits`) keep them
+/// finite; debug builds (the tests', the fuzzer's) check it at every query.
+#[inline(always)]
+fn debug_assert_finite(ray: &Ray) {
+    debug_assert!(
+        ray.origin.is_finite() && ray.dir.is_finite(),
+        "a non-finite ray reached the traversal: {ray:?}"
+    );
+}
 
 /// Which acceleration structure to build. Both give the same image, bit for bit.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -140,6 +152,7 @@ impl Accel {
         t_max: f32,
         stats: &mut TraversalStats,
     ) -> Option<Hit> {
+        debug_assert_finite(ray);
         match self {
             Accel::Linear(l) => l.closest_hit(scene, ray, t_min, t_max, stats),
             Accel::Bvh(b) => b.closest_hit(scene, ray, t_min, t_max, stats),
@@ -158,20 +171,12 @@ impl Accel {
         light: &Light,
         stats: &mut TraversalStats,
     ) -> bool {
+        debug_assert_finite(ray);
         match self {
             Accel::Linear(l) => l
                 .closest_hit(scene, ray, t_min, f32::INFINITY, stats)
                 .is_some_and(|h| h.object == light.object),
-            Accel::Bvh(b) => {
-                // The watertight constants once, for the light and the occluders.
-                let pray = PrimRay::new(ray);
-                match light.nearest_hit_watertight(ray, &pray.triangle, t_min) {
-                    None => false,
-                    Some((t, id)) => {
-                        !b.occluded_prim(scene, &pray, t_min, t, id, light.object, stats)
-                    }
-                }
-            }
+            Accel::Bvh(b) => b.light_visible(scene, ray, t_min, light, stats),
         }
     }
 
@@ -184,6 +189,7 @@ impl Accel {
         t_min: f32,
         stats: &mut TraversalStats,
     ) -> PacketHits<L> {
+        set_lanes(p.active).for_each(|k| debug_assert_finite(&p.ray(k)));
         match self {
             Accel::Linear(l) => {
                 let mut hits = PacketHits::none(p.active);
@@ -209,6 +215,7 @@ impl Accel {
         stats: &mut TraversalStats,
     ) -> u32 {
         let lanes = lanes & p.active;
+        set_lanes(lanes).for_each(|k| debug_assert_finite(&p.ray(k)));
         match self {
             Accel::Linear(_) => {
                 let mut visible = 0;
@@ -219,45 +226,7 @@ impl Accel {
                 }
                 visible
             }
-            Accel::Bvh(b) => {
-                let (t_light, id_light, reach) =
-                    if let LightShape::Point { center, radius } = light.shape {
-                        // `nearest_hit` of a point light, lane-wise.
-                        let (t, hits) = p.sphere(center, radius, t_min, f32::INFINITY, lanes);
-                        (t, [light.first_id; MAX_WIDTH], hits)
-                    } else {
-                        let (t, id, reach) = if let LightShape::Quads(qs) = &light.shape {
-                            p.quad_light_hits(scene, qs, light.first_id, t_min, lanes)
-                        } else {
-                            let mut t_light = [0.0; MAX_WIDTH];
-                            let mut id_light = [0; MAX_WIDTH];
-                            let mut reach = 0;
-                            for k in set_lanes(lanes) {
-                                if let Some((t, id)) = light.nearest_hit(&p.ray(k), t_min) {
-                                    t_light[k] = t;
-                                    id_light[k] = id;
-                                    reach |= 1 << k;
-                                }
-                            }
-                            (t_light, id_light, reach)
-                        };
-                        (L::from_fn(|k| t[k]), id, reach)
-                    };
-                if reach == 0 {
-                    return 0;
-                }
-                let occluded = b.occluded_packet(
-                    scene,
-                    p,
-                    t_min,
-                    t_light,
-                    &id_light,
-                    light.object,
-                    reach,
-                    stats,
-                );
-                reach & !occluded
-            }
+            Accel::Bvh(b) => b.light_visible_packet(scene, p, t_min, light, lanes, stats),
         }
     }
 }

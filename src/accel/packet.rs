@@ -10,11 +10,10 @@
 //! (`RayPacket::fallback`) is finished one ray at a time by the scalar traversal.
 
 use super::bvh4::{
-    decode_leaf, plane_rows, slab, BoxRay, Bvh4, Node4, Node8, Wide, EMPTY, FAR_SCALE, LEAF,
+    decode_leaf, plane_rows, slab, Bvh4, Node4, Node8, RayConsts, Wide, EMPTY, FAR_SCALE, LEAF,
     NEAR_SCALE,
 };
 use super::cull::Cull;
-use super::linear::PrimRay;
 use super::TraversalStats;
 use crate::geometry::quad::Quad;
 use crate::geometry::quad::{inside_quad, outer_edge_is_zero, plane_distance, quad_edge_functions};
@@ -24,8 +23,7 @@ use crate::geometry::triangle::{
 };
 use crate::geometry::{beats, Aabb, Hit, PrimKind, Ray};
 use crate::lanes::{set_lanes, Lane, Mask, V3};
-use crate::scene::{LightShape, Scene};
-use std::cell::OnceCell;
+use crate::scene::{Light, LightShape, Scene};
 use std::mem::MaybeUninit;
 use wide::f32x8;
 
@@ -161,7 +159,9 @@ impl<L: Lane> RayPacket<L> {
     /// the vertices (triangles are then tested one lane at a time by the scalar test,
     /// which makes its own constants). Made at a packet's first triangle or quad test
     /// (`LazyTriangles`): most `bunny` packets never reach one, and these are three
-    /// divisions a packet.
+    /// divisions a packet. Inlined into `LazyTriangles::make`, which stores them in
+    /// place: returned, they were copied twice (`OnceCell`), a 450-byte memcpy each.
+    #[inline(always)]
     fn triangle_lanes<'a>(
         &self,
         pool: &'a TrianglePool,
@@ -190,7 +190,8 @@ impl<L: Lane> RayPacket<L> {
                 [(kz + 1) % 3, (kz + 2) % 3, kz]
             };
             return Some(TriangleLanes {
-                order: Order::Uniform(axes, pool.columns(axes)),
+                // No columns without triangles (quad-only scenes): nine slices checked.
+                order: Order::Uniform(axes, (!pool.is_empty()).then(|| pool.columns(axes))),
                 origin: [o[kx], o[ky], o[kz]],
                 sx: d[kx] / d[kz],
                 sy: d[ky] / d[kz],
@@ -245,93 +246,101 @@ impl<L: Lane> RayPacket<L> {
     }
 
     /// `Light::nearest_hit` of a light made of the quads `quads` (ids from `first_id`), on
-    /// the lanes of `lanes`, by the quad test over lanes (the scalar test where it asks
-    /// for it): per lane the nearest `(t, id)` by the `(t, id)` rule, and the lanes that
-    /// hit. The same bits as `nearest_hit` lane by lane.
-    pub fn quad_light_hits(
+    /// the lanes of `lanes`, by the quad test over lanes (`tris`: the packet's watertight
+    /// lanes; the scalar test where they ask for it): per lane the nearest `(t, id)` by
+    /// the `(t, id)` rule, the id in the bits of an f32 lane, and the lanes that hit. The
+    /// same bits as `nearest_hit` lane by lane.
+    #[inline(always)]
+    fn quad_light_hits(
         &self,
-        scene: &Scene,
         quads: &[Quad],
         first_id: u32,
         t_min: f32,
         lanes: u32,
-    ) -> ([f32; MAX_WIDTH], [u32; MAX_WIDTH], u32) {
-        let mut best_t = [0.0; MAX_WIDTH];
-        let mut best_id = [0; MAX_WIDTH];
+        tris: &mut LazyTriangles<'_, L>,
+    ) -> (L, L, u32) {
+        let (mut best_t, mut best_id) = (L::splat(0.0), L::splat(0.0));
         let mut found = 0u32;
-        let lanes = lanes & self.active;
-        let tri = self.triangle_lanes(&scene.triangles, true);
         let (t_min_l, far) = (L::splat(t_min), L::splat(f32::INFINITY));
         for (k, q) in quads.iter().enumerate() {
-            let id = first_id + k as u32;
-            let (t, mut bits, redo) = match &tri {
-                Some(tri) => {
-                    let [a, b, c, d] = q.vertices;
-                    let v = [a.to_array(), b.to_array(), c.to_array(), d.to_array()];
-                    let plane = || q.normal.extend(q.plane_d).to_array();
-                    self.quad(tri, &v, plane, [t_min_l, far], lanes)
-                }
-                None => (L::splat(0.0), 0, lanes),
-            };
-            let mut out = [0.0; MAX_WIDTH];
-            for (j, o) in out.iter_mut().enumerate().take(L::WIDTH) {
-                *o = t.lane(j);
+            let v = q.vertices.map(|p| p.to_array());
+            let plane = q.normal.extend(q.plane_d).to_array();
+            let (mut t, mut bits, redo) = self.quad(tris, &v, plane, [t_min_l, far], lanes);
+            if redo != 0 {
+                let (t_redo, hit) = self.redo_light_quad(q, t_min, redo);
+                t = L::select(L::Mask::from_bits(hit), t_redo, t);
+                bits |= hit;
             }
-            for j in set_lanes(redo) {
-                if let Some(tj) = q.intersect(&self.ray(j), t_min, f32::INFINITY) {
-                    out[j] = tj;
-                    bits |= 1 << j;
-                }
+            // Ids grow with k, so a later quad takes a lane only if it is nearer.
+            let win = bits & !(found & !t.lt(best_t).bits());
+            if win == 0 {
+                continue;
             }
-            for j in set_lanes(bits) {
-                let t = out[j];
-                if found >> j & 1 == 0 || beats((t, id), (best_t[j], best_id[j])) {
-                    best_t[j] = t;
-                    best_id[j] = id;
-                    found |= 1 << j;
-                }
-            }
+            let m = L::Mask::from_bits(win);
+            best_t = L::select(m, t, best_t);
+            best_id = L::select(m, L::splat(f32::from_bits(first_id + k as u32)), best_id);
+            found |= win;
         }
         (best_t, best_id, found)
     }
 
-    /// The quad test on the lanes of `lanes`, for the quad with vertices `q` and plane
-    /// `plane()` (n, D; read only if needed): distances, the lanes that hit, and the lanes
-    /// that the scalar test must redo (`TriangleLanes::quad_edges`). Both masks are empty
-    /// when no lane passes through the quad (then no distance, and no division, is
-    /// computed). Out of line: inlined into the packet loops it cost `bunny`, which has
-    /// no quad, 1.3% more render instructions (8 wide, callgrind), and saved `cornell`
-    /// 0.5%.
+    /// The lanes `redo` of `quad_light_hits`, one at a time with the scalar test.
+    #[cold]
     #[inline(never)]
+    fn redo_light_quad(&self, q: &Quad, t_min: f32, redo: u32) -> (L, u32) {
+        let mut out = [0.0; MAX_WIDTH];
+        let mut bits = 0;
+        for j in set_lanes(redo) {
+            if let Some(tj) = q.intersect(&self.ray(j), t_min, f32::INFINITY) {
+                out[j] = tj;
+                bits |= 1 << j;
+            }
+        }
+        (L::from_fn(|k| out[k]), bits)
+    }
+
+    /// The quad test on the lanes of `lanes`, for the quad with vertices `q` and plane
+    /// `plane` (n, D): distances, the lanes that hit, and the lanes that the scalar test
+    /// must redo (`TriangleLanes::quad_edges`). The plane first, as the scalar test
+    /// (`QuadPool::intersect_lazy`): the edge test, and the packet's watertight lanes
+    /// (`tris`), only for the lanes that meet the plane in `[t_min, t_max]`. Both masks
+    /// are empty when none does.
+    #[inline(always)]
     fn quad(
         &self,
-        tri: &TriangleLanes<L>,
+        tris: &mut LazyTriangles<'_, L>,
         q: &[[f32; 3]; 4],
-        plane: impl FnOnce() -> [f32; 4],
+        plane: [f32; 4],
         [t_min, t_max]: [L; 2],
         lanes: u32,
     ) -> (L, u32, u32) {
-        let (inside, exact_zero) = tri.quad_edges(q, lanes);
-        if inside | exact_zero == 0 {
-            return (L::splat(0.0), 0, 0);
-        }
-        let [nx, ny, nz, d] = plane().map(L::splat);
+        let [nx, ny, nz, d] = plane.map(L::splat);
         let n = V3::new(nx, ny, nz);
         let (t, hit) = plane_distance(n, d, self.origin, self.dir, t_min, t_max);
-        (t, hit.bits() & inside, exact_zero)
+        let near = hit.bits() & lanes;
+        if near == 0 {
+            return (t, 0, 0);
+        }
+        let (inside, exact_zero) = Self::quad_edges(tris, q, near);
+        (t, inside, exact_zero)
+    }
+
+    /// `quad`'s edge test on the lanes `near`. Out of line: the whole test inlined into
+    /// the packet loops cost `bunny`, which has no quad, 1.3% more render instructions
+    /// (8 wide, callgrind).
+    #[inline(never)]
+    fn quad_edges(tris: &mut LazyTriangles<'_, L>, q: &[[f32; 3]; 4], near: u32) -> (u32, u32) {
+        // A scene with quads always gets the lanes; `None` would redo every lane.
+        match tris.get(PrimKind::Quad) {
+            Some(tri) => tri.quad_edges(q, near),
+            None => (0, near),
+        }
     }
 
     /// The ray of lane `k` (an inactive lane holds a copy of an active one).
     #[inline]
     pub fn ray(&self, k: usize) -> Ray {
         Ray::new(self.origin.lane(k), self.dir.lane(k))
-    }
-
-    /// The scalar constants of lane `k`, for a subtree it finishes alone.
-    #[inline]
-    fn scalar(&self, k: usize) -> (PrimRay, BoxRay) {
-        let ray = self.ray(k);
-        (PrimRay::new(&ray), BoxRay::new(&ray))
     }
 
     /// The lanes whose ray meets `b` in `[t_min, t_max]` (the traversal's conservative
@@ -420,7 +429,7 @@ impl<L: Lane> RayPacket<L> {
         t_min: f32,
         t_max_l: L,
         lanes: u32,
-        tri: Option<&TriangleLanes<L>>,
+        tris: &mut LazyTriangles<'_, L>,
     ) -> (L, u32) {
         let t_min_l = L::splat(t_min);
         let (t, mut bits, mut redo) = match kind {
@@ -438,24 +447,20 @@ impl<L: Lane> RayPacket<L> {
                 );
                 (t, hit.bits(), 0)
             }
-            PrimKind::Quad => match tri {
-                Some(tri) => {
-                    let qs = &scene.quads;
-                    let plane = || qs.plane[i];
-                    let window = [t_min_l, t_max_l];
-                    let (t, hit, exact_zero) =
-                        self.quad(tri, &qs.vertices[i], plane, window, lanes);
-                    if hit | exact_zero == 0 {
-                        return (L::splat(0.0), 0);
-                    }
-                    (t, hit, exact_zero)
+            PrimKind::Quad => {
+                let qs = &scene.quads;
+                let window = [t_min_l, t_max_l];
+                let (t, hit, exact_zero) =
+                    self.quad(tris, &qs.vertices[i], qs.plane[i], window, lanes);
+                if hit | exact_zero == 0 {
+                    return (L::splat(0.0), 0);
                 }
-                None => (L::splat(0.0), 0, lanes),
-            },
-            PrimKind::Triangle => match tri {
+                (t, hit, exact_zero)
+            }
+            PrimKind::Triangle => match tris.get(kind) {
                 Some(
                     tri @ TriangleLanes {
-                        order: Order::Uniform(_, cols),
+                        order: Order::Uniform(_, Some(cols)),
                         ..
                     },
                 ) => {
@@ -583,7 +588,7 @@ impl<L: Lane> TriangleLanes<'_, L> {
 /// The lanes' axis order [kx, ky, kz].
 enum Order<'a, L: Lane> {
     /// The same in every lane, with the triangle columns in that order.
-    Uniform([usize; 3], Columns<'a>),
+    Uniform([usize; 3], Option<Columns<'a>>),
     /// Per lane: for kx, ky and kz, the lanes where it is x and those where it is y (else
     /// it is z).
     PerLane([[L::Mask; 2]; 3]),
@@ -595,33 +600,44 @@ fn pick<L: Lane>(v: [L; 3], [is_x, is_y]: [L::Mask; 2]) -> L {
     L::select(is_x, v[0], L::select(is_y, v[1], v[2]))
 }
 
+/// A packet's `TriangleLanes`, made at its first triangle or quad test (`get`).
 struct LazyTriangles<'a, L: Lane> {
     packet: &'a RayPacket<L>,
     tri: &'a TrianglePool,
     quads: bool,
-    cell: OnceCell<Option<TriangleLanes<'a, L>>>,
+    made: bool,
+    lanes: Option<TriangleLanes<'a, L>>,
 }
 
 impl<'a, L: Lane> LazyTriangles<'a, L> {
+    #[inline(always)]
     fn new(packet: &'a RayPacket<L>, scene: &'a Scene) -> Self {
         Self {
             packet,
             tri: &scene.triangles,
             quads: !scene.quads.is_empty(),
-            cell: OnceCell::new(),
+            made: false,
+            lanes: None,
         }
     }
 
     /// The watertight lanes for a triangle or quad test (`None` for spheres, or when the
     /// lanes order the axes differently in a scene without quads).
     #[inline(always)]
-    fn get(&self, kind: PrimKind) -> Option<&TriangleLanes<'a, L>> {
+    fn get(&mut self, kind: PrimKind) -> Option<&TriangleLanes<'a, L>> {
         if kind == PrimKind::Sphere {
             return None;
         }
-        self.cell
-            .get_or_init(|| self.packet.triangle_lanes(self.tri, self.quads))
-            .as_ref()
+        if !self.made {
+            self.make();
+        }
+        self.lanes.as_ref()
+    }
+
+    #[inline(never)]
+    fn make(&mut self) {
+        self.lanes = self.packet.triangle_lanes(self.tri, self.quads);
+        self.made = true;
     }
 }
 
@@ -632,6 +648,103 @@ fn ids(scene: &Scene, kind: PrimKind, i: usize) -> (u32, u32) {
         PrimKind::Sphere => (scene.spheres.id[i], scene.spheres.object[i]),
         PrimKind::Quad => (scene.quads.id[i], scene.quads.object[i]),
         PrimKind::Triangle => (scene.triangles.id[i], scene.triangles.object[i]),
+    }
+}
+
+/// What the lanes of a shadow packet look for: per lane the light object's own nearest
+/// hit `(t, id)` (the id in an f32's bits), the object, and the kind of its primitives
+/// when it is a light (an object is one sphere, quads or triangles; `None`: any kind
+/// may be the object's).
+#[derive(Clone, Copy)]
+struct ShadowTarget<L> {
+    t: L,
+    id: L,
+    object: u32,
+    kind: Option<PrimKind>,
+}
+
+/// The lanes of `lanes` for which a primitive of `range` (of `kind`) occludes `light`
+/// (`Bvh4::occluded_lanes`) within `t_max`.
+/// Inlined into the traversal (a closure call cost `cornell`'s shadow packets 12% more
+/// instructions, `packet_probe cornell 8 shadow`), one loop per kind: with the kind
+/// known, each loop holds only its kind's test (the tree's leaves, whose kind is not
+/// known, take `occluders_of` with all three: a copy per kind there cost more).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn occluders<L: Lane>(
+    scene: &Scene,
+    p: &RayPacket<L>,
+    light: ShadowTarget<L>,
+    kind: PrimKind,
+    range: std::ops::Range<usize>,
+    t_min: f32,
+    lanes: u32,
+    t_max: L,
+    tris: &mut LazyTriangles<'_, L>,
+) -> u32 {
+    let (s, r, l) = (scene, range, lanes);
+    match kind {
+        PrimKind::Sphere => occluders_of(s, p, light, PrimKind::Sphere, r, t_min, l, t_max, tris),
+        PrimKind::Quad => occluders_of(s, p, light, PrimKind::Quad, r, t_min, l, t_max, tris),
+        PrimKind::Triangle => {
+            occluders_of(s, p, light, PrimKind::Triangle, r, t_min, l, t_max, tris)
+        }
+    }
+}
+
+/// `occluders` for primitives of `kind`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn occluders_of<L: Lane>(
+    scene: &Scene,
+    p: &RayPacket<L>,
+    light: ShadowTarget<L>,
+    kind: PrimKind,
+    range: std::ops::Range<usize>,
+    t_min: f32,
+    lanes: u32,
+    t_max: L,
+    tris: &mut LazyTriangles<'_, L>,
+) -> u32 {
+    let mut found = 0;
+    // Primitives of the object's own kind are skipped before their test (the light's
+    // quads are dear to test); the others cannot be the object's, and their ids are
+    // looked up only when some lane hits them.
+    let (t_light, object) = (light.t, light.object);
+    let check_first = light.kind.is_none_or(|k| k == kind);
+    for i in range {
+        if check_first && ids(scene, kind, i).1 == object {
+            continue;
+        }
+        let (t, bits) = p.test_prim(scene, kind, i, t_min, t_max, lanes & !found, tris);
+        if bits == 0 {
+            continue;
+        }
+        let (id, obj) = ids(scene, kind, i);
+        if obj == object {
+            continue;
+        }
+        // `beats` lane-wise: nearer than the light, or as near with a smaller id.
+        found |= t.lt(t_light).bits() & bits;
+        for k in set_lanes(t.eq(t_light).bits() & bits) {
+            if id < light.id.lane(k).to_bits() {
+                found |= 1 << k;
+            }
+        }
+        if found == lanes {
+            break;
+        }
+    }
+    found
+}
+
+/// The kind of a light's primitives.
+#[inline(always)]
+fn light_kind(shape: &LightShape) -> PrimKind {
+    match shape {
+        LightShape::Point { .. } => PrimKind::Sphere,
+        LightShape::Quads(_) => PrimKind::Quad,
+        LightShape::Triangles(_) => PrimKind::Triangle,
     }
 }
 
@@ -889,10 +1002,32 @@ impl<L: Lane> PacketHits<L> {
         range: std::ops::Range<usize>,
         t_min: f32,
         lanes: u32,
-        tri: Option<&TriangleLanes<L>>,
+        tris: &mut LazyTriangles<'_, L>,
+    ) {
+        // One loop per kind, each with its kind's test only.
+        let (r, l) = (range, lanes);
+        match kind {
+            PrimKind::Sphere => self.leaf_of(scene, p, PrimKind::Sphere, r, t_min, l, tris),
+            PrimKind::Quad => self.leaf_of(scene, p, PrimKind::Quad, r, t_min, l, tris),
+            PrimKind::Triangle => self.leaf_of(scene, p, PrimKind::Triangle, r, t_min, l, tris),
+        }
+    }
+
+    /// `leaf` for primitives of `kind`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn leaf_of(
+        &mut self,
+        scene: &Scene,
+        p: &RayPacket<L>,
+        kind: PrimKind,
+        range: std::ops::Range<usize>,
+        t_min: f32,
+        lanes: u32,
+        tris: &mut LazyTriangles<'_, L>,
     ) {
         for i in range {
-            let (t, bits) = p.test_prim(scene, kind, i, t_min, self.t, lanes, tri);
+            let (t, bits) = p.test_prim(scene, kind, i, t_min, self.t, lanes, tris);
             if bits == 0 {
                 continue;
             }
@@ -941,7 +1076,7 @@ impl Bvh4 {
         t_min: f32,
         stats: &mut TraversalStats,
     ) -> PacketHits<L> {
-        let tris = LazyTriangles::new(p, scene);
+        let mut tris = LazyTriangles::new(p, scene);
         let mut st = PacketHits::none(p.active);
         for (k, &kind) in KINDS.iter().enumerate() {
             let range = self.linear[k].clone();
@@ -952,7 +1087,7 @@ impl Bvh4 {
             }
             if p.cull.beside[k] == u32::MAX {
                 stats.prims += (range.len() * p.active.count_ones() as usize) as u64;
-                st.leaf(scene, p, kind, range, t_min, p.active, tris.get(kind));
+                st.leaf(scene, p, kind, range, t_min, p.active, &mut tris);
                 continue;
             }
             // The primitives the cull keeps (past the 32nd, all), in pool order.
@@ -963,12 +1098,12 @@ impl Bvh4 {
                 let i = first + kept.trailing_zeros() as usize;
                 kept &= kept - 1;
                 stats.prims += p.active.count_ones() as u64;
-                st.leaf(scene, p, kind, i..i + 1, t_min, p.active, tris.get(kind));
+                st.leaf(scene, p, kind, i..i + 1, t_min, p.active, &mut tris);
             }
             if range.len() > 32 {
                 let rest = first + 32..range.end;
                 stats.prims += (rest.len() * p.active.count_ones() as usize) as u64;
-                st.leaf(scene, p, kind, rest, t_min, p.active, tris.get(kind));
+                st.leaf(scene, p, kind, rest, t_min, p.active, &mut tris);
             }
         }
         let Some(root) = self.root else {
@@ -986,7 +1121,9 @@ impl Bvh4 {
         // one 8-lane bound test a node, two thirds of the levels (`packet_probe
         // bunny-closeup 8`: 67.2M → 66.0M instructions; at 4 wide 130.4M → 123.2M).
         if let (Some(fr), Some(root8)) = (Frustum::new(p), self.root8) {
-            self.closest_frustum(scene, p, &fr, root8, lanes, t_min, &mut st, &tris, stats);
+            self.closest_frustum(
+                scene, p, &fr, root8, lanes, t_min, &mut st, &mut tris, stats,
+            );
             return st;
         }
         let fallback = RayPacket::<L>::fallback();
@@ -1007,7 +1144,7 @@ impl Bvh4 {
                     start as usize..(start + count) as usize,
                     t_min,
                     lanes,
-                    tris.get(kind),
+                    &mut tris,
                 );
             } else if lanes != 0 {
                 stats.nodes += 1;
@@ -1036,11 +1173,19 @@ impl Bvh4 {
                     debug_assert!(child != EMPTY);
                     if bits.count_ones() <= fallback {
                         for k in set_lanes(bits) {
-                            let (pray, bray) = p.scalar(k);
+                            let ray = p.ray(k);
+                            let (mut consts, bray) = RayConsts::with_box4(&ray);
                             let mut t_max = st.t.lane(k);
                             let mut best = st.hit(k);
                             self.closest_hit_from(
-                                scene, child, &pray, &bray, t_min, &mut t_max, &mut best, stats,
+                                scene,
+                                child,
+                                &mut consts,
+                                &bray,
+                                t_min,
+                                &mut t_max,
+                                &mut best,
+                                stats,
                             );
                             st.set(k, t_max, best);
                         }
@@ -1105,7 +1250,7 @@ impl Bvh4 {
         lanes: u32,
         t_min: f32,
         st: &mut PacketHits<L>,
-        tris: &LazyTriangles<'_, L>,
+        tris: &mut LazyTriangles<'_, L>,
         stats: &mut TraversalStats,
     ) {
         // The farthest closest hit of the lanes (+∞ while one has none).
@@ -1121,7 +1266,7 @@ impl Bvh4 {
                 if leaf_lanes != 0 {
                     stats.prims += (count * leaf_lanes.count_ones()) as u64;
                     let range = start as usize..(start + count) as usize;
-                    st.leaf(scene, p, kind, range, t_min, leaf_lanes, tris.get(kind));
+                    st.leaf(scene, p, kind, range, t_min, leaf_lanes, tris);
                     t_far = far(st);
                 }
             } else {
@@ -1169,59 +1314,97 @@ impl Bvh4 {
         lanes: u32,
         stats: &mut TraversalStats,
     ) -> u32 {
-        let mut remaining = lanes & p.active;
-        let mut occluded = 0u32;
-        let tris = LazyTriangles::new(p, scene);
         // The kind of the object's primitives when it is a light (an object is one
         // sphere, quads or triangles); `None`: any kind may be the object's.
         let object_kind = scene
             .lights
             .iter()
             .find(|l| l.object == object)
-            .map(|l| match l.shape {
-                LightShape::Point { .. } => PrimKind::Sphere,
-                LightShape::Quads(_) => PrimKind::Quad,
-                LightShape::Triangles(_) => PrimKind::Triangle,
-            });
-        // Lanes not tested get t_max = −∞ (no box or primitive test passes).
-        let mut t_max = in_play(remaining, t_light);
-        let leaf = |kind: PrimKind, range: std::ops::Range<usize>, lanes: u32, t_max: L| -> u32 {
-            let mut found = 0;
-            // Primitives of the object's own kind are skipped before their test (the
-            // light's quads are dear to test); the others cannot be the object's, and
-            // their ids are looked up only when some lane hits them.
-            let check_first = object_kind.is_none_or(|k| k == kind);
-            for i in range {
-                if check_first && ids(scene, kind, i).1 == object {
-                    continue;
-                }
-                let (t, bits) =
-                    p.test_prim(scene, kind, i, t_min, t_max, lanes & !found, tris.get(kind));
-                if bits == 0 {
-                    continue;
-                }
-                let (id, obj) = ids(scene, kind, i);
-                if obj == object {
-                    continue;
-                }
-                // `beats` lane-wise: nearer than the light, or as near with a smaller id.
-                found |= t.lt(t_light).bits() & bits;
-                for k in set_lanes(t.eq(t_light).bits() & bits) {
-                    if id < id_light[k] {
-                        found |= 1 << k;
+            .map(|l| light_kind(&l.shape));
+        let id_light = L::from_fn(|k| f32::from_bits(id_light[k]));
+        let mut tris = LazyTriangles::new(p, scene);
+        let light = ShadowTarget {
+            t: t_light,
+            id: id_light,
+            object,
+            kind: object_kind,
+        };
+        self.occluded_lanes(scene, p, t_min, light, lanes, &mut tris, stats)
+    }
+
+    /// `Accel::light_visible` for the active lanes of `p` in `lanes`: the mask of those
+    /// that see `light`. The light's own hits and the occluders share the packet's
+    /// watertight lanes (made once, at the first quad or triangle edge test).
+    pub fn light_visible_packet<L: Lane>(
+        &self,
+        scene: &Scene,
+        p: &RayPacket<L>,
+        t_min: f32,
+        light: &Light,
+        lanes: u32,
+        stats: &mut TraversalStats,
+    ) -> u32 {
+        let lanes = lanes & p.active;
+        let mut tris = LazyTriangles::new(p, scene);
+        let (t_light, id_light, reach) = match &light.shape {
+            LightShape::Point { center, radius } => {
+                // `nearest_hit` of a point light, lane-wise.
+                let (t, hits) = p.sphere(*center, *radius, t_min, f32::INFINITY, lanes);
+                (t, L::splat(f32::from_bits(light.first_id)), hits)
+            }
+            LightShape::Quads(qs) => p.quad_light_hits(qs, light.first_id, t_min, lanes, &mut tris),
+            LightShape::Triangles(_) => {
+                let mut t_light = [0.0; MAX_WIDTH];
+                let mut id_light = [0.0; MAX_WIDTH];
+                let mut reach = 0;
+                for k in set_lanes(lanes) {
+                    if let Some((t, id)) = light.nearest_hit(&p.ray(k), t_min) {
+                        t_light[k] = t;
+                        id_light[k] = f32::from_bits(id);
+                        reach |= 1 << k;
                     }
                 }
-                if found == lanes {
-                    break;
-                }
+                (
+                    L::from_fn(|k| t_light[k]),
+                    L::from_fn(|k| id_light[k]),
+                    reach,
+                )
             }
-            found
         };
+        if reach == 0 {
+            return 0;
+        }
+        let own = ShadowTarget {
+            t: t_light,
+            id: id_light,
+            object: light.object,
+            kind: Some(light_kind(&light.shape)),
+        };
+        reach & !self.occluded_lanes(scene, p, t_min, own, reach, &mut tris, stats)
+    }
+
+    /// `occluded_packet` with the light as lanes.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn occluded_lanes<L: Lane>(
+        &self,
+        scene: &Scene,
+        p: &RayPacket<L>,
+        t_min: f32,
+        light: ShadowTarget<L>,
+        lanes: u32,
+        tris: &mut LazyTriangles<'_, L>,
+        stats: &mut TraversalStats,
+    ) -> u32 {
+        let mut remaining = lanes & p.active;
+        let mut occluded = 0u32;
+        // Lanes not tested get t_max = −∞ (no box or primitive test passes).
+        let mut t_max = in_play(remaining, light.t);
         for (k, &kind) in KINDS.iter().enumerate() {
             let range = self.linear[k].clone();
             if !range.is_empty() && remaining != 0 {
                 stats.prims += (range.len() * remaining.count_ones() as usize) as u64;
-                let found = leaf(kind, range, remaining, t_max);
+                let found = occluders(scene, p, light, kind, range, t_min, remaining, t_max, tris);
                 occluded |= found;
                 remaining &= !found;
             }
@@ -1257,7 +1440,8 @@ impl Bvh4 {
             if code & LEAF != 0 {
                 let (kind, start, count) = decode_leaf(code);
                 stats.prims += (count * lanes.count_ones()) as u64;
-                found = leaf(kind, start as usize..(start + count) as usize, lanes, t_max);
+                let range = start as usize..(start + count) as usize;
+                found = occluders_of(scene, p, light, kind, range, t_min, lanes, t_max, tris);
             } else {
                 stats.nodes += 1;
                 stats.packet_nodes += 1;
@@ -1281,21 +1465,31 @@ impl Bvh4 {
                     }
                     if bits.count_ones() <= fallback {
                         for k in set_lanes(bits) {
-                            let (pray, bray) = p.scalar(k);
+                            let ray = p.ray(k);
+                            let (mut consts, bray) = RayConsts::with_box4(&ray);
                             if self.occluded_from(
                                 scene,
                                 child,
-                                &pray,
+                                &mut consts,
                                 &bray,
                                 t_min,
-                                t_light.lane(k),
-                                id_light[k],
-                                object,
+                                light.t.lane(k),
+                                light.id.lane(k).to_bits(),
+                                light.object,
                                 stats,
                             ) {
                                 found |= 1 << k;
                             }
                         }
+                        continue;
+                    }
+                    // A leaf child is tested here, without a push and pop.
+                    if child & LEAF != 0 {
+                        let (kind, start, count) = decode_leaf(child);
+                        stats.prims += (count * bits.count_ones()) as u64;
+                        let range = start as usize..(start + count) as usize;
+                        found |=
+                            occluders_of(scene, p, light, kind, range, t_min, bits, t_max_l, tris);
                         continue;
                     }
                     stack[sp].write((child, bits));

@@ -4,7 +4,7 @@
 use clap::{Parser, Subcommand, ValueEnum};
 use raytracer::accel::AccelKind;
 use raytracer::rng::SamplerKind;
-use raytracer::PacketWidth;
+use raytracer::{PacketWidth, Rect, Region};
 use std::path::PathBuf;
 
 /// `--version` says whether the AVX2 lanes were compiled in (`.cargo/config.toml`).
@@ -26,7 +26,7 @@ const VERSION: &str = if cfg!(target_feature = "avx2") {
     subcommand_negates_reqs = true
 )]
 pub struct Args {
-    /// Error against time: `reference` and `sweep` (see `raytracer sweep --help`).
+    /// Error against time (`reference`, `sweep`); putting part files together (`merge`).
     #[command(subcommand)]
     pub command: Option<Command>,
 
@@ -95,9 +95,55 @@ pub struct Args {
     /// Write a JSON report of sizes, timings and ray counts to this file.
     #[arg(long)]
     pub report: Option<PathBuf>,
+
+    /// Render part I of N (0-based) of the frame and write it as a part file
+    /// (-o NAME.part, default <scene>-<I>of<N>.part); `raytracer merge` puts the parts
+    /// together. Each part gets every N-th tile of the frame, spread over all of it.
+    #[arg(long, value_name = "I/N", value_parser = parse_region, conflicts_with = "crop")]
+    pub region: Option<Region>,
+
+    /// Render only the pixels [X0, X1) x [Y0, Y1) of the frame, as a part file
+    /// (-o NAME.part, default <scene>-crop-X0-Y0-X1-Y1.part).
+    #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_crop)]
+    pub crop: Option<Rect>,
+
+    /// The memory the run may use, in bytes or with a unit (K, M, G, T: powers of 1024),
+    /// e.g. 4G or 1.5G: a scene and image estimated to need more are refused before the
+    /// memory is taken [default: the machine's available memory].
+    #[arg(long, value_parser = parse_bytes)]
+    pub max_memory: Option<u64>,
 }
 
-/// The error-against-time commands.
+/// A byte count: a number, optionally with a unit (`K`, `M`, `G`, `T`, powers of 1024,
+/// also written `KiB`, `MB`, …). `1.5G` is 1.5 · 2³⁰ bytes, rounded down.
+pub fn parse_bytes(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (number, unit) = t.split_at(split);
+    let shift = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 0,
+        "k" | "kb" | "kib" => 10,
+        "m" | "mb" | "mib" => 20,
+        "g" | "gb" | "gib" => 30,
+        "t" | "tb" | "tib" => 40,
+        _ => return Err(format!("unknown unit '{unit}' (use K, M, G or T)")),
+    };
+    let value: f64 = number
+        .parse()
+        .map_err(|_| format!("'{text}' is not a number of bytes"))?;
+    let bytes = value * (1u64 << shift) as f64;
+    // Up to 2^63: beyond any machine's memory, and exact in u64.
+    if !(1.0..=9.2e18).contains(&bytes) {
+        return Err(format!(
+            "'{text}' must be at least 1 byte and at most 8 EiB"
+        ));
+    }
+    Ok(bytes as u64)
+}
+
+/// The subcommands: error against time, and merging part files.
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Render a high-spp reference image (EXR, linear f32) for `sweep`.
@@ -105,6 +151,28 @@ pub enum Command {
     /// Render a scene at spp = 1, 2, 4, …, --spp-max for each sampler, time each render and
     /// measure its error against the reference; write a CSV and an SVG chart.
     Sweep(SweepArgs),
+    /// Put part files (made with --region or --crop) together into the frame, after
+    /// checking that they come from one program, scene and settings and that they hold
+    /// every pixel exactly once. The frame has the bits of a one-process render.
+    Merge(MergeArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct MergeArgs {
+    /// The part files.
+    #[arg(required = true)]
+    pub parts: Vec<PathBuf>,
+    /// Output image: .exr (linear f32, the bits of a one-process render), .png or .ppm.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// The memory the merge may use (as for rendering): a frame and part estimated to
+    /// need more are refused before the memory is taken [default: the machine's
+    /// available memory].
+    #[arg(long, value_parser = parse_bytes)]
+    pub max_memory: Option<u64>,
+    /// No summary line.
+    #[arg(short, long)]
+    pub quiet: bool,
 }
 
 #[derive(Debug, clap::Args)]
@@ -165,6 +233,37 @@ pub struct SweepArgs {
     pub threads: Option<u32>,
 }
 
+/// `--region I/N`: part I of N, with 0 <= I < N <= `Region::MAX_PARTS`.
+fn parse_region(s: &str) -> Result<Region, String> {
+    let bad = || {
+        format!(
+            "must be I/N with 0 <= I < N <= {}, got '{s}'",
+            Region::MAX_PARTS
+        )
+    };
+    let (index, count) = s.split_once('/').ok_or_else(bad)?;
+    let index: u32 = index.parse().map_err(|_| bad())?;
+    let count: u32 = count.parse().map_err(|_| bad())?;
+    if index >= count || count > Region::MAX_PARTS {
+        return Err(bad());
+    }
+    Ok(Region::Part { index, count })
+}
+
+/// `--crop X0,Y0,X1,Y1`: a non-empty window (whether it fits the image is checked once
+/// the scene says how large the image is).
+fn parse_crop(s: &str) -> Result<Rect, String> {
+    let bad = || format!("must be X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1, got '{s}'");
+    let v: Vec<u32> = s
+        .split(',')
+        .map(|x| x.trim().parse().map_err(|_| bad()))
+        .collect::<Result<_, _>>()?;
+    match v[..] {
+        [x0, y0, x1, y1] if x0 < x1 && y0 < y1 => Ok(Rect::new(x0, y0, x1, y1)),
+        _ => Err(bad()),
+    }
+}
+
 /// `--sampler`: the library's `SamplerKind` as the command line spells it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Sampler {
@@ -206,5 +305,24 @@ impl From<Accel> for AccelKind {
             Accel::Linear => AccelKind::Linear,
             Accel::Bvh => AccelKind::Bvh,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_bytes;
+
+    #[test]
+    fn byte_counts_with_and_without_units() {
+        assert_eq!(parse_bytes("1000"), Ok(1000));
+        assert_eq!(parse_bytes("4K"), Ok(4096));
+        assert_eq!(parse_bytes("512M"), Ok(512 << 20));
+        assert_eq!(parse_bytes("512 MiB"), Ok(512 << 20));
+        assert_eq!(parse_bytes("1.5G"), Ok(3 << 29));
+        assert_eq!(parse_bytes("2t"), Ok(2 << 40));
+        for bad in ["", "G", "0", "0.1", "-1G", "1.2.3M", "5X", "1e3", "9E"] {
+            assert!(parse_bytes(bad).is_err(), "{bad}");
+        }
+        assert!(parse_bytes("8388608T").is_err());
     }
 }

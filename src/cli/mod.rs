@@ -1,8 +1,23 @@
 //! The command line, in the binary only (the library knows nothing of it): `args` (clap's
-//! flags) → `options` (validated, defaults filled in) → `render` or `sweep` (the run),
-//! with the `report` (JSON) and `stats` printers apart.
+//! flags) → `options` (validated, defaults filled in) → `render`, `merge` or `sweep` (the
+//! run), with the `report` (JSON) and `stats` printers apart.
+//!
+//! Messages on stderr (notes, warnings, statistics, the summary line, errors) are best
+//! effort: a closed or full stderr never fails a run whose files are written. What a
+//! command prints on stdout (`--list`, a sweep's summary) is its product: a failure to
+//! write it is an error, but for a reader that went away (a broken pipe), which ends the
+//! run as a success, as `head` expects.
+
+/// `eprintln!` that ignores a failure to write (see the module's documentation).
+macro_rules! to_stderr {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
 
 pub mod args;
+pub mod merge;
 pub mod options;
 pub mod render;
 pub mod report;
@@ -11,28 +26,70 @@ pub mod sweep;
 
 use anyhow::Context;
 use raytracer::SceneFile;
+use std::io::Write;
 use std::path::Path;
 
 /// The worker threads of every command (rayon's global pool is never used), and their
-/// number: `threads`, or all cores.
+/// number: `threads`, or all cores. Where the system refuses threads (a process limit),
+/// a run without `--threads` falls back to fewer (images do not depend on the thread
+/// count) and says so; a run with `--threads`, or one that gets no thread at all, is an
+/// error, before any work.
 pub fn thread_pool(threads: Option<u32>) -> anyhow::Result<(rayon::ThreadPool, usize)> {
-    let threads = threads.map_or_else(
-        || std::thread::available_parallelism().map_or(1, |n| n.get()),
-        |t| t as usize,
-    );
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .context("cannot start the worker threads")?;
-    Ok((pool, threads))
+    let build = |n: usize| rayon::ThreadPoolBuilder::new().num_threads(n).build();
+    if let Some(n) = threads {
+        let n = n as usize;
+        // rayon's error already ends with the system's reason.
+        let pool = build(n)
+            .map_err(|e| anyhow::anyhow!("cannot start {n} worker threads (--threads): {e}"))?;
+        return Ok((pool, n));
+    }
+    let all = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut n = all;
+    let mut attempt = 0;
+    loop {
+        match build(n) {
+            Ok(pool) => {
+                if n < all {
+                    to_stderr!("note: the system refused {all} worker threads: running on {n}");
+                }
+                return Ok((pool, n));
+            }
+            Err(_) if n > 1 => n /= 2,
+            // The threads of a refused pool end on their own, and count until they do.
+            Err(_) if attempt < 4 => {
+                std::thread::sleep(std::time::Duration::from_millis(10 << attempt));
+                attempt += 1;
+            }
+            Err(e) => anyhow::bail!("cannot start a worker thread: {e}"),
+        }
+    }
+}
+
+/// Standard output was closed by its reader (a broken pipe): the run ends with exit code
+/// 0 and no message.
+#[derive(Debug, thiserror::Error)]
+#[error("standard output was closed")]
+pub struct StdoutClosed;
+
+/// Write `text` to standard output: a broken pipe is `StdoutClosed`, any other failure
+/// (a full disk, `> /dev/full`) an error.
+pub fn print_stdout(text: &str) -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(StdoutClosed.into()),
+        Err(e) => Err(anyhow::Error::new(e).context("cannot write to standard output")),
+    }
 }
 
 /// `--list`: every built-in scene with its description.
 pub fn list() -> anyhow::Result<()> {
+    let mut text = String::new();
     for name in SceneFile::builtin_names() {
-        println!("{name:<22} {}", SceneFile::builtin(name)?.description());
+        let description = SceneFile::builtin(name)?.description().to_string();
+        text += &format!("{name:<22} {description}\n");
     }
-    Ok(())
+    print_stdout(&text)
 }
 
 /// The scene argument: a built-in scene name, or a path to a scene file. An argument

@@ -1,11 +1,12 @@
 //! Validated options: what the parsed flags mean, checked before any long work (the
-//! output's format and directory, the report's directory), with defaults filled in.
+//! output's format, that every output file can be written, that the report replaces
+//! neither the scene file nor the image), with defaults filled in.
 
 use super::args::{self, Args};
 use super::scene_stem;
 use raytracer::output::{self, ImageFormat};
-use raytracer::{PacketWidth, RenderSettings, SamplerKind, SceneOptions};
-use std::path::PathBuf;
+use raytracer::{PacketWidth, Region, RenderSettings, SamplerKind, SceneOptions};
+use std::path::{Path, PathBuf};
 
 /// What the command line asks for.
 #[derive(Debug)]
@@ -15,6 +16,7 @@ pub enum Options {
     Render(RenderOptions),
     Reference(ReferenceOptions),
     Sweep(SweepOptions),
+    Merge(MergeOptions),
 }
 
 /// Render one scene to an image.
@@ -24,6 +26,9 @@ pub struct RenderOptions {
     pub scene: String,
     pub scene_options: SceneOptions,
     pub settings: RenderSettings,
+    /// `Some`: render this region into a part file (`--region`, `--crop`, or the whole
+    /// frame for `-o NAME.part`); `None`: render the frame into an image.
+    pub region: Option<Region>,
     pub output: PathBuf,
     pub report: Option<PathBuf>,
     pub stats: bool,
@@ -58,6 +63,36 @@ pub struct SweepOptions {
     pub reference_spp: u32,
 }
 
+impl Options {
+    /// The directories the command writes files into, where a killed run may have left
+    /// temporary files (`output::remove_stale_temporaries`).
+    pub fn output_dirs(&self) -> Vec<PathBuf> {
+        let mut dirs: Vec<PathBuf> = match self {
+            Options::List => Vec::new(),
+            Options::Merge(o) => vec![output::directory_of(&o.output)],
+            Options::Render(o) => std::iter::once(&o.output)
+                .chain(&o.report)
+                .map(|p| output::directory_of(p))
+                .collect(),
+            Options::Reference(o) => vec![output::directory_of(&o.output)],
+            Options::Sweep(o) => vec![output::directory_of(&o.reference), o.out.clone()],
+        };
+        dirs.dedup();
+        dirs
+    }
+}
+
+/// `raytracer merge`.
+#[derive(Debug)]
+pub struct MergeOptions {
+    pub parts: Vec<PathBuf>,
+    pub output: PathBuf,
+    /// `--max-memory` (`None`: the machine's free memory).
+    pub max_memory: Option<u64>,
+    /// The summary line (off with `--quiet`).
+    pub notes: bool,
+}
+
 /// The options and the worker threads they ask for (`None`: all cores).
 pub fn from_args(args: Args) -> anyhow::Result<(Options, Option<u32>)> {
     match args.command {
@@ -69,6 +104,7 @@ pub fn from_args(args: Args) -> anyhow::Result<(Options, Option<u32>)> {
             let threads = s.threads;
             Ok((Options::Sweep(sweep(s)), threads))
         }
+        Some(args::Command::Merge(m)) => Ok((Options::Merge(merge(m)?), None)),
         None if args.list => Ok((Options::List, None)),
         None => {
             let threads = args.threads;
@@ -79,13 +115,34 @@ pub fn from_args(args: Args) -> anyhow::Result<(Options, Option<u32>)> {
 
 fn render(args: Args) -> anyhow::Result<RenderOptions> {
     let scene = args.scene.unwrap_or_default();
+    let region = args.region.or(args.crop.map(Region::Crop));
     let output = args
         .output
-        .unwrap_or_else(|| PathBuf::from(format!("{}.png", scene_stem(&scene))));
-    ImageFormat::for_path(&output)?;
+        .unwrap_or_else(|| default_output(&scene_stem(&scene), region));
+    // A part file for a region, or for the whole frame when -o names one.
+    let region = match region {
+        Some(r) if !is_part(&output) => anyhow::bail!(
+            "{} writes a part file: -o must end in .part, got {}",
+            if matches!(r, Region::Crop(_)) {
+                "--crop"
+            } else {
+                "--region"
+            },
+            output.display()
+        ),
+        None if is_part(&output) => Some(Region::Frame),
+        r => r,
+    };
+    if region.is_none() {
+        ImageFormat::for_path(&output)?;
+    }
     output::check_writable(&output)?;
     if let Some(report) = &args.report {
         output::check_writable(report)?;
+        // A scene argument that names a file (not a built-in scene).
+        let scene_path = Path::new(&scene);
+        let scene_file = scene_path.is_file().then_some(scene_path);
+        output::check_distinct_outputs(scene_file, &output, report)?;
     }
     Ok(RenderOptions {
         scene,
@@ -94,6 +151,7 @@ fn render(args: Args) -> anyhow::Result<RenderOptions> {
             spp: args.spp,
             max_depth: args.max_depth,
             accel: args.accel.into(),
+            max_memory: args.max_memory,
         },
         settings: RenderSettings {
             seed: args.seed,
@@ -101,10 +159,51 @@ fn render(args: Args) -> anyhow::Result<RenderOptions> {
             specialize: !args.no_specialize,
             sampler: args.sampler.into(),
         },
+        region,
         output,
         report: args.report,
         stats: args.stats,
         notes: !args.quiet,
+    })
+}
+
+fn is_part(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e == "part")
+}
+
+/// The default output: `<stem>.png`, or a part file `bunny-3of16.part`,
+/// `bunny-crop-0-0-64-64.part`.
+fn default_output(stem: &str, region: Option<Region>) -> PathBuf {
+    PathBuf::from(match region {
+        None => format!("{stem}.png"),
+        Some(Region::Part { index, count }) => format!("{stem}-{index}of{count}.part"),
+        Some(Region::Crop(r)) => format!("{stem}-crop-{}-{}-{}-{}.part", r.x0, r.y0, r.x1, r.y1),
+        Some(Region::Frame) => format!("{stem}.part"),
+    })
+}
+
+fn merge(m: args::MergeArgs) -> anyhow::Result<MergeOptions> {
+    ImageFormat::for_path(&m.output)?;
+    // The frame must not replace one of its parts.
+    if let Ok(out) = std::fs::canonicalize(&m.output) {
+        if let Some(part) = m
+            .parts
+            .iter()
+            .find(|p| std::fs::canonicalize(p).is_ok_and(|p| p == out))
+        {
+            anyhow::bail!(
+                "-o {} is the part file {}: the merged frame would replace it",
+                m.output.display(),
+                part.display()
+            );
+        }
+    }
+    output::check_writable(&m.output)?;
+    Ok(MergeOptions {
+        parts: m.parts,
+        output: m.output,
+        max_memory: m.max_memory,
+        notes: !m.quiet,
     })
 }
 

@@ -1,9 +1,13 @@
 //! Render one scene: load, build, render on the current pool (with a progress bar on a
-//! terminal), write the image, then the report, the statistics and the summary line.
+//! terminal), write the image (or the part file of a region) and the report together
+//! (all or nothing), then the statistics and the summary line.
 
 use super::options::RenderOptions;
 use super::{report, stats};
-use raytracer::{PacketWidth, Rendered, Renderer};
+use anyhow::Context;
+use raytracer::budget::Limit;
+use raytracer::output::OutputSet;
+use raytracer::{Error, PacketWidth, Part, RayCounts, Region, Rendered, Renderer};
 use std::io::IsTerminal;
 use std::time::{Duration, Instant};
 
@@ -24,38 +28,84 @@ pub struct Timings {
 pub struct Run<'a> {
     pub options: &'a RenderOptions,
     pub renderer: &'a Renderer,
-    pub rendered: &'a Rendered,
+    pub counts: RayCounts,
+    /// Pixels with a NaN or infinite channel.
+    pub non_finite: usize,
     pub threads: usize,
     pub timings: Timings,
+}
+
+/// The pixels of a run: the frame, or a region of it for a part file.
+enum Pixels {
+    Frame(Rendered),
+    Part(Part),
 }
 
 /// Render `o` on the current rayon pool of `threads` threads.
 pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
     let start = Instant::now();
     if o.settings.packet_width == PacketWidth::Eight && !raytracer::lanes::AVX2 && o.notes {
-        eprintln!("note: built without AVX2: 8-wide packets run as two 4-wide halves");
+        to_stderr!("note: built without AVX2: 8-wide packets run as two 4-wide halves");
     }
     let file = super::scene_file(&o.scene)?;
-    let renderer = Renderer::new(&file, &o.scene_options)?;
+    let renderer = Renderer::new(&file, &o.scene_options).map_err(|e| match e {
+        Error::OutOfMemory {
+            limited_by: Limit::Cap,
+            ..
+        } => anyhow::Error::new(e).context("--max-memory"),
+        e => e.into(),
+    })?;
     let built = Instant::now();
+    // The region's tiles; a crop outside the image is refused here, before the render.
+    let tiles = match o.region {
+        None => renderer.tiles() as u64,
+        Some(region) => {
+            let rects = region
+                .rects(renderer.width(), renderer.height())
+                .with_context(|| match region {
+                    Region::Crop(r) => format!("--crop {r}"),
+                    Region::Part { index, count } => format!("--region {index}/{count}"),
+                    Region::Frame => "the whole frame".into(),
+                })?;
+            raytracer::render::tile_count(&rects)
+        }
+    };
 
-    let bar = o.notes.then(|| progress_bar(&renderer)).flatten();
+    let bar = o.notes.then(|| progress_bar(tiles)).flatten();
     let on_tile = || {
         if let Some(b) = &bar {
             b.inc(1)
         }
     };
-    let rendered = renderer.render_with_progress(&o.settings, &on_tile)?;
+    let pixels = match o.region {
+        None => Pixels::Frame(renderer.render_with_progress(&o.settings, &on_tile)?),
+        Some(region) => {
+            Pixels::Part(renderer.render_part_with_progress(&o.settings, region, &on_tile)?)
+        }
+    };
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
     let rendered_at = Instant::now();
 
-    rendered.film.write(&o.output)?;
-    let run = Run {
+    // The image (or part) and the report are written to temporary files, then renamed
+    // into place together: a failure leaves neither, and no earlier file is replaced.
+    let mut files = OutputSet::default();
+    let (counts, non_finite) = match &pixels {
+        Pixels::Frame(rendered) => {
+            files.add_image(&rendered.film, &o.output)?;
+            (rendered.counts, rendered.film.non_finite_count())
+        }
+        Pixels::Part(part) => {
+            part.add_to(&mut files, &o.output)?;
+            (part.counts(), part.non_finite_count())
+        }
+    };
+    let mut run = Run {
         options: o,
         renderer: &renderer,
-        rendered: &rendered,
+        counts,
+        non_finite,
         threads,
         timings: Timings {
             load: (built - start).saturating_sub(renderer.build_time()),
@@ -66,8 +116,14 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
         },
     };
     if let Some(path) = &o.report {
-        report::write(path, &run)?;
+        let json = report::json(&run)?;
+        files.add(path, |out| {
+            use std::io::Write;
+            writeln!(out, "{json}")
+        })?;
     }
+    files.commit()?;
+    run.timings.write = rendered_at.elapsed();
     if o.stats {
         stats::print(&run);
     }
@@ -78,11 +134,11 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
 }
 
 /// A bar over the tiles, on a terminal only.
-fn progress_bar(renderer: &Renderer) -> Option<indicatif::ProgressBar> {
+fn progress_bar(tiles: u64) -> Option<indicatif::ProgressBar> {
     if !std::io::stderr().is_terminal() {
         return None;
     }
-    let bar = indicatif::ProgressBar::new(renderer.tiles() as u64);
+    let bar = indicatif::ProgressBar::new(tiles);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
             "{spinner} {wide_bar} {percent}% {elapsed}/{duration}",
@@ -94,15 +150,20 @@ fn progress_bar(renderer: &Renderer) -> Option<indicatif::ProgressBar> {
 
 /// The warning for non-finite pixels and the one summary line.
 fn summary(run: &Run) {
-    let (r, film, counts) = (run.renderer, &run.rendered.film, run.rendered.counts);
-    let bad = film.non_finite_count();
-    if bad > 0 {
-        eprintln!("warning: {bad} pixels had a NaN or infinite value");
+    let (r, counts) = (run.renderer, run.counts);
+    if run.non_finite > 0 {
+        to_stderr!(
+            "warning: {} pixels had a NaN or infinite value",
+            run.non_finite
+        );
     }
     let render_s = run.timings.render.as_secs_f64();
-    eprintln!(
-        "{}: {}x{}, {} spp, {:.3} s render ({:.3} s total), {:.2} M rays, {:.1} Mrays/s -> {}",
+    to_stderr!(
+        "{}: {}{}x{}, {} spp, {:.3} s render ({:.3} s total), {:.2} M rays, {:.1} Mrays/s -> {}",
         r.name(),
+        run.options
+            .region
+            .map_or_else(String::new, |region| format!("{region} of ")),
         r.width(),
         r.height(),
         r.spp(),

@@ -1,9 +1,8 @@
-//! `--report FILE`: sizes, timings and ray counts of a run as JSON, written atomically.
+//! `--report FILE`: sizes, timings and ray counts of a run as JSON, written with the
+//! image (`cli::render`).
 
 use super::render::Run;
-use raytracer::output;
 use raytracer::RayCounts;
-use std::path::Path;
 
 /// The `--report` JSON.
 #[derive(Debug, serde::Serialize)]
@@ -18,6 +17,10 @@ struct Report<'a> {
     specialize: bool,
     seconds: Seconds,
     rays: Rays,
+    /// The region rendered into a part file ("region 3/16", "crop 0,0,64,64", "the whole
+    /// frame"); absent for an image.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    region: Option<String>,
     /// Pixels with a NaN or infinite channel (`Film::non_finite_count`).
     non_finite_pixels: usize,
 }
@@ -63,8 +66,9 @@ impl From<RayCounts> for Rays {
     }
 }
 
-/// Write the report of `run` to `path`.
-pub fn write(path: &Path, run: &Run) -> anyhow::Result<()> {
+/// The report of `run`, as JSON. The write time is the image's encoding (the report is
+/// written with it).
+pub fn json(run: &Run) -> anyhow::Result<String> {
     let (r, t) = (run.renderer, run.timings);
     let report = Report {
         scene: r.name(),
@@ -82,13 +86,9 @@ pub fn write(path: &Path, run: &Run) -> anyhow::Result<()> {
             write: t.write.as_secs_f64(),
             total: t.start.elapsed().as_secs_f64(),
         },
-        rays: run.rendered.counts.into(),
-        non_finite_pixels: run.rendered.film.non_finite_count(),
+        rays: run.counts.into(),
+        region: run.options.region.map(|r| r.to_string()),
+        non_finite_pixels: run.non_finite,
     };
-    let json = serde_json::to_string_pretty(&report)?;
-    output::write_atomically(path, |out| {
-        use std::io::Write;
-        writeln!(out, "{json}")
-    })?;
-    Ok(())
+    Ok(serde_json::to_string_pretty(&report)?)
 }

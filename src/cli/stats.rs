@@ -5,16 +5,16 @@ use super::render::Run;
 
 /// Print the statistics of `run` on stderr, one `stats:` line each.
 pub fn print(run: &Run) {
-    let (scene, counts) = (run.renderer.scene(), run.rendered.counts);
+    let (scene, counts) = (run.renderer.scene(), run.counts);
     let settings = &run.options.settings;
     let t = counts.traversal;
     let per_ray = |x: u64| x as f64 / counts.total().max(1) as f64;
-    eprintln!("stats: {}", run.renderer.accel().describe(scene));
-    eprintln!(
+    to_stderr!("stats: {}", run.renderer.accel().describe(scene));
+    to_stderr!(
         "stats: build {:.3} ms",
         run.timings.build.as_secs_f64() * 1e3
     );
-    eprintln!(
+    to_stderr!(
         "stats: rays: {} camera, {} shadow, {} secondary; per ray {:.2} boxes visited, {:.2} primitives tested",
         counts.camera,
         counts.shadow,
@@ -24,7 +24,7 @@ pub fn print(run: &Run) {
     );
     let f = scene.features;
     let yes_no = |b: bool| if b { "yes" } else { "no" };
-    eprintln!(
+    to_stderr!(
         "stats: scene needs: path-traced bounces {}, mirror rays {}, shadow rays {} ({} point, {} area lights)",
         yes_no(f.has_path_traced),
         yes_no(f.has_mirror),
@@ -34,14 +34,14 @@ pub fn print(run: &Run) {
     );
     let w = settings.packet_width.rays();
     if !settings.specialize {
-        eprintln!("stats: specialisation off (--no-specialize)");
+        to_stderr!("stats: specialisation off (--no-specialize)");
     } else {
-        eprintln!(
+        to_stderr!(
             "stats: skipped: {} shadow rays (their light sample adds nothing, lit or not), {} packets that miss everything (the scene's box, or their tile's cone)",
             counts.shadow_culled, counts.packets_outside
         );
         if w > 1 {
-            eprintln!(
+            to_stderr!(
                 "stats: skipped by the tiles' camera cones: {} primitive tests beside the tree (lanes), {} camera packets' tree traversals",
                 counts.cone_prims, counts.cone_trees
             );
@@ -51,7 +51,7 @@ pub fn print(run: &Run) {
         let pct = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{:.1}%", x * 100.0));
         let nodes = (t.packet_nodes > 0)
             .then(|| t.packet_lanes as f64 / (t.packet_nodes * w as u64) as f64);
-        eprintln!(
+        to_stderr!(
             "stats: {w}-wide packets (AVX2 {}): lane occupancy camera {}, shadow {}, secondary {}; at node visits {}",
             if raytracer::lanes::AVX2 { "on" } else { "off" },
             pct(counts.camera_packets.occupancy(w)),
@@ -60,8 +60,5 @@ pub fn print(run: &Run) {
             pct(nodes),
         );
     }
-    eprintln!(
-        "stats: non-finite pixels: {}",
-        run.rendered.film.non_finite_count()
-    );
+    to_stderr!("stats: non-finite pixels: {}", run.non_finite);
 }

@@ -22,7 +22,7 @@ pub fn reference(o: &ReferenceOptions, threads: usize) -> anyhow::Result<()> {
         super::create_parent(&o.output)?;
     }
     let info = make_reference(&o.scene, Some(o.width), o.spp, o.sampler, &o.output)?;
-    eprintln!(
+    to_stderr!(
         "reference {}: {}x{}, {} spp {}, {:.1} s on {threads} threads, estimated own RMSE {:.3e} -> {}",
         info.scene,
         info.width,
@@ -50,7 +50,7 @@ pub fn sweep(o: &SweepOptions, threads: usize) -> anyhow::Result<()> {
     }
     if !o.reference.exists() {
         super::create_parent(&o.reference)?;
-        eprintln!(
+        to_stderr!(
             "making the reference {} ({} spp)",
             o.reference.display(),
             o.reference_spp
@@ -62,7 +62,7 @@ pub fn sweep(o: &SweepOptions, threads: usize) -> anyhow::Result<()> {
             SamplerKind::Sobol,
             &o.reference,
         )?;
-        eprintln!(
+        to_stderr!(
             "reference: {:.1} s, estimated own RMSE {:.3e}",
             info.seconds,
             info.estimated_mse.sqrt()
@@ -77,7 +77,7 @@ pub fn sweep(o: &SweepOptions, threads: usize) -> anyhow::Result<()> {
         packet_widths: o.packet_widths.clone(),
         seed: o.seed,
     };
-    eprintln!(
+    to_stderr!(
         "sweep {}: {}x{}, {threads} threads, {} runs a point; reference {} spp, estimated own RMSE {:.3e}",
         scene.name,
         scene.camera.width,
@@ -87,7 +87,7 @@ pub fn sweep(o: &SweepOptions, threads: usize) -> anyhow::Result<()> {
         info.estimated_mse.sqrt()
     );
     let points = run_sweep(&mut scene, &accel, &reference, &plan, &mut |p| {
-        eprintln!(
+        to_stderr!(
             "  {:<11} x{} {:>5} spp  {:>8.4} s ({:.4}–{:.4})  RMSE {:.4e}  relMSE {:.4e}  PSNR {:.2} dB",
             p.sampler.name(),
             p.packet_width,
@@ -103,14 +103,17 @@ pub fn sweep(o: &SweepOptions, threads: usize) -> anyhow::Result<()> {
     let csv = csv(&scene, &info, threads, &points);
     let svg = chart(&scene.name, &points, &info);
     let summary = summary(&points);
+    // The three files together, all or nothing.
+    let mut files = output::OutputSet::default();
     for (path, text) in [(&csv_path, &csv), (&svg_path, &svg), (&txt_path, &summary)] {
-        output::write_atomically(path, |out| {
+        files.add(path, |out| {
             use std::io::Write;
             out.write_all(text.as_bytes())
         })?;
     }
-    print!("{summary}");
-    eprintln!(
+    files.commit()?;
+    super::print_stdout(&summary)?;
+    to_stderr!(
         "wrote {}, {}, {}",
         csv_path.display(),
         svg_path.display(),
@@ -198,6 +201,7 @@ pub fn make_reference(
     path: &Path,
 ) -> anyhow::Result<ReferenceInfo> {
     output::check_writable(path)?;
+    output::check_writable(&info_path(path))?;
     let (mut scene, accel) = prepare(scene_arg, width)?;
     let half = (spp / 2).max(1);
     let start = Instant::now();
@@ -229,7 +233,6 @@ pub fn make_reference(
             .map(|(x, y)| (*x + *y) * 0.5)
             .collect(),
     };
-    output::write_image(&mean, path)?;
     let info = ReferenceInfo {
         scene: scene.name.clone(),
         width: mean.width,
@@ -240,11 +243,15 @@ pub fn make_reference(
         estimated_mse,
         seconds,
     };
+    // The image and its note together, all or nothing.
     let json = serde_json::to_string_pretty(&info)?;
-    output::write_atomically(&info_path(path), |out| {
+    let mut files = output::OutputSet::default();
+    files.add_image(&mean, path)?;
+    files.add(&info_path(path), |out| {
         use std::io::Write;
         writeln!(out, "{json}")
     })?;
+    files.commit()?;
     Ok(info)
 }
 

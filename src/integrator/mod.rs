@@ -170,8 +170,9 @@ pub struct Tracer<'a> {
     pub(crate) tables: shade::ShadeTables,
     /// The bounding balls `camera_cull` tests (`None` for the linear scan).
     cull_targets: Option<CullTargets>,
-    /// The camera sits strictly inside the scene's bounds: every camera ray meets them,
-    /// so camera packets skip that test (`bunny`'s ground sphere holds the camera).
+    /// The camera (with a lens, every point of its lens disk) sits strictly inside the
+    /// scene's bounds: every camera ray meets them, so camera packets skip that test
+    /// (`bunny`'s ground sphere holds the camera).
     /// Skipping an early-out never changes a result, only whether it is taken.
     pub camera_inside: bool,
 }
@@ -191,28 +192,36 @@ impl<'a> Tracer<'a> {
             tables: shade::ShadeTables::new(scene),
             cull_targets: CullTargets::new(scene, accel),
             camera_inside: {
-                let (o, b) = (scene.camera.origin, &scene.bounds);
-                b.min.cmplt(o).all() && o.cmplt(b.max).all()
+                // Every lens point: the ball of `lens_reach` around the lens's centre.
+                let (o, b) = (scene.camera.origin.as_dvec3(), &scene.bounds);
+                let reach = glam::DVec3::splat(scene.camera.lens_reach());
+                b.min.as_dvec3().cmplt(o - reach).all() && (o + reach).cmplt(b.max.as_dvec3()).all()
             },
         }
     }
 
-    /// What the camera rays of the pixels `[x0, x1) × [y0, y1)` may hit, any jitter:
-    /// the cone from the camera through the corners of that rectangle of the image plane
-    /// holds every one of their rays (`cull::Cone`). `Cull::ALL` when not specialising.
+    /// What the camera rays of the pixels `[x0, x1) × [y0, y1)` may hit, any jitter and
+    /// any lens point: the cone from the camera through the corners of that rectangle of
+    /// the viewport, widened by the f32 rounding of the rays and by the lens (its apex
+    /// moved back so that it holds the lens disk), holds every one of their rays
+    /// (`cull::Cone::through_lens`). `Cull::ALL` when not specialising.
     pub fn camera_cull(&self, x0: u32, y0: u32, x1: u32, y1: u32) -> Cull {
         let Some(targets) = self.cull_targets.as_ref().filter(|_| self.specialize) else {
             return Cull::ALL;
         };
         let c = &self.scene.camera;
-        let origin = c.origin.as_dvec3();
         let corners = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)].map(|(x, y)| {
             c.corner.as_dvec3()
                 + c.pixel_du.as_dvec3() * x as f64
                 + c.pixel_dv.as_dvec3() * y as f64
-                - origin
         });
-        match Cone::through(origin, &corners) {
+        let cone = Cone::through_lens(
+            c.origin.as_dvec3(),
+            c.lens_reach(),
+            &corners,
+            c.viewport_error(),
+        );
+        match cone {
             Some(cone) => targets.cull(&cone),
             None => Cull::ALL,
         }

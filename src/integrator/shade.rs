@@ -239,13 +239,21 @@ impl Tracer<'_> {
         let xs: [u32; MAX_WIDTH] = std::array::from_fn(|k| x0 + k as u32 % fw);
         let ys: [u32; MAX_WIDTH] = std::array::from_fn(|k| y0 + k as u32 / fw);
         let keys = self.sampler.key_lanes(L::WIDTH, xs, ys, sample);
-        let dir = scene.camera.directions(
+        let camera = &scene.camera;
+        // A thin lens: each lane starts at its own point of the lens disk.
+        let origin = if camera.has_lens() {
+            camera.lens_points(keys.uniform(0, slot::LENS_X), keys.uniform(0, slot::LENS_Y))
+        } else {
+            V3::splat(camera.origin)
+        };
+        let dir = camera.directions(
+            origin,
             L::from_fn(|k| xs[k] as f32),
             L::from_fn(|k| ys[k] as f32),
             keys.uniform(0, slot::JITTER_X),
             keys.uniform(0, slot::JITTER_Y),
         );
-        let paths = Paths::new(V3::splat(scene.camera.origin), dir, active);
+        let paths = Paths::new(origin, dir, active);
         self.trace_paths(paths, &keys, Some(cull), counts)
     }
 

@@ -20,6 +20,10 @@ pub const SCENES: &[(&str, &str)] = &[
     ("mixed", include_str!("../../scenes/mixed.toml")),
     ("quads", include_str!("../../scenes/quads.toml")),
     ("spheres", include_str!("../../scenes/spheres.toml")),
+    (
+        "spheres-defocus",
+        include_str!("../../scenes/spheres-defocus.toml"),
+    ),
 ];
 
 /// (path as the built-in scene files write it, text).

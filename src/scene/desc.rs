@@ -1,14 +1,58 @@
 //! Scene descriptions: serde structs that mirror a scene file, word for word.
 //!
 //! Reads every key of a scene file; `scenes/README.md` documents them. Unknown keys are
-//! errors (`deny_unknown_fields`). Values are checked in `scene::compile`, which reports
-//! the line of the offending table through the spans kept here.
+//! errors (`deny_unknown_fields`). Numbers are kept as TOML gives them (f64): whether
+//! they fit the renderer's f32 is checked in `scene::compile`, which reports the line of
+//! the offending table through the spans kept here.
 
+use serde::de::{self, Deserializer, IgnoredAny, SeqAccess, Visitor};
 use serde::Deserialize;
 use std::collections::BTreeMap;
+use std::fmt;
 use toml::Spanned;
 
-pub type V3 = [f32; 3];
+/// A point, vector or colour: exactly three numbers. (serde's `[T; 3]` reads the first
+/// three elements of a longer array and ignores the rest, of any type.)
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct V3(pub [f64; 3]);
+
+impl<'de> Deserialize<'de> for V3 {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_seq(ThreeNumbers)
+    }
+}
+
+struct ThreeNumbers;
+
+impl<'de> Visitor<'de> for ThreeNumbers {
+    type Value = V3;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("an array of three numbers")
+    }
+
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<V3, A::Error> {
+        let mut v = [0.0; 3];
+        for (i, x) in v.iter_mut().enumerate() {
+            *x = seq.next_element::<f64>()?.ok_or_else(|| three_numbers(i))?;
+        }
+        let mut len = 3;
+        while seq.next_element::<IgnoredAny>()?.is_some() {
+            len += 1;
+        }
+        if len > 3 {
+            return Err(three_numbers(len));
+        }
+        Ok(V3(v))
+    }
+}
+
+fn three_numbers<E: de::Error>(len: usize) -> E {
+    E::custom(format!(
+        "expected an array of three numbers, got {len} element{}",
+        if len == 1 { "" } else { "s" }
+    ))
+}
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -25,6 +69,18 @@ pub struct SceneDesc {
     pub materials: BTreeMap<String, Spanned<MaterialDesc>>,
     #[serde(default)]
     pub objects: Vec<Spanned<ObjectDesc>>,
+}
+
+impl SceneDesc {
+    /// No key at all: an empty, blank or comment-only file.
+    pub fn sets_nothing(&self) -> bool {
+        self.description.is_empty()
+            && self.background.is_none()
+            && self.ambient.is_none()
+            && self.camera.is_none()
+            && self.materials.is_empty()
+            && self.objects.is_empty()
+    }
 }
 
 /// The aspect ratio: a number (width / height) or a string "W:H".
@@ -48,12 +104,19 @@ pub struct CameraDesc {
     pub max_depth: i64,
     #[serde(default = "defaults::vfov")]
     pub vfov: f64,
-    #[serde(default)]
-    pub look_from: [f64; 3],
+    #[serde(default = "defaults::look_from")]
+    pub look_from: V3,
     #[serde(default = "defaults::look_at")]
-    pub look_at: [f64; 3],
+    pub look_at: V3,
     #[serde(default = "defaults::up")]
-    pub up: [f64; 3],
+    pub up: V3,
+    /// Degrees (0: a pinhole); the lens disk's radius is `focus_dist · tan(angle / 2)`.
+    /// Spanned, so that a bad value's message points at it.
+    #[serde(default)]
+    pub defocus_angle: Option<Spanned<f64>>,
+    /// Distance of the plane in focus, which holds the viewport (default 1).
+    #[serde(default)]
+    pub focus_dist: Option<Spanned<f64>>,
 }
 
 impl Default for CameraDesc {
@@ -64,9 +127,11 @@ impl Default for CameraDesc {
             samples_per_pixel: defaults::spp(),
             max_depth: defaults::max_depth(),
             vfov: defaults::vfov(),
-            look_from: [0.0; 3],
+            look_from: defaults::look_from(),
             look_at: defaults::look_at(),
             up: defaults::up(),
+            defocus_angle: None,
+            focus_dist: None,
         }
     }
 }
@@ -74,7 +139,7 @@ impl Default for CameraDesc {
 /// The seed's camera defaults and Phong's ka = kd = ks = 0.5 (`docs/seed-semantics.md`,
 /// "Camera").
 mod defaults {
-    use super::AspectDesc;
+    use super::{AspectDesc, V3};
     pub fn width() -> i64 {
         100
     }
@@ -90,16 +155,19 @@ mod defaults {
     pub fn vfov() -> f64 {
         90.0
     }
-    pub fn look_at() -> [f64; 3] {
-        [0.0, 0.0, -1.0]
+    pub fn look_from() -> V3 {
+        V3([0.0, 0.0, 0.0])
     }
-    pub fn up() -> [f64; 3] {
-        [0.0, 1.0, 0.0]
+    pub fn look_at() -> V3 {
+        V3([0.0, 0.0, -1.0])
     }
-    pub fn half() -> f32 {
+    pub fn up() -> V3 {
+        V3([0.0, 1.0, 0.0])
+    }
+    pub fn half() -> f64 {
         0.5
     }
-    pub fn one() -> f32 {
+    pub fn one() -> f64 {
         1.0
     }
 }
@@ -109,24 +177,24 @@ mod defaults {
 pub enum MaterialDesc {
     Phong {
         albedo: V3,
-        shininess: f32,
+        shininess: f64,
         #[serde(default = "defaults::half")]
-        ka: f32,
+        ka: f64,
         #[serde(default = "defaults::half")]
-        kd: f32,
+        kd: f64,
         #[serde(default = "defaults::half")]
-        ks: f32,
+        ks: f64,
     },
     PhongMirror {
         albedo: V3,
-        shininess: f32,
-        index: f32,
+        shininess: f64,
+        index: f64,
         #[serde(default = "defaults::half")]
-        ka: f32,
+        ka: f64,
         #[serde(default = "defaults::half")]
-        kd: f32,
+        kd: f64,
         #[serde(default = "defaults::half")]
-        ks: f32,
+        ks: f64,
     },
     Diffuse {
         albedo: V3,
@@ -134,15 +202,15 @@ pub enum MaterialDesc {
     Metal {
         albedo: V3,
         #[serde(default)]
-        fuzz: f32,
+        fuzz: f64,
     },
     Dielectric {
-        index: f32,
+        index: f64,
     },
     Light {
         color: V3,
         #[serde(default = "defaults::one")]
-        intensity: f32,
+        intensity: f64,
     },
 }
 
@@ -151,7 +219,7 @@ pub enum MaterialDesc {
 pub enum ObjectDesc {
     Sphere {
         center: V3,
-        radius: f32,
+        radius: f64,
         material: String,
     },
     /// A parallelogram: corner Q and edges u, v.
@@ -168,7 +236,11 @@ pub enum ObjectDesc {
         material: String,
     },
     /// An axis-aligned box given by two opposite corners.
-    Box { corners: [V3; 2], material: String },
+    Box {
+        /// Two points (a `Vec`, so that a third is reported rather than ignored).
+        corners: Vec<V3>,
+        material: String,
+    },
     /// An OBJ mesh, path relative to the scene file, optionally split 1-to-4 at its edge
     /// midpoints `subdivide` times (for tests and benchmarks of large meshes).
     Mesh {

@@ -1,11 +1,20 @@
 //! OBJ meshes, read with `tobj`, checked, and turned into triangles.
 //!
-//! tobj reports what is wrong but not where; when it fails, or when a vertex is not
-//! finite, the text is scanned again to name the offending line.
+//! tobj reports what is wrong but not where, and resolves face indices only when an
+//! object ends; its index arithmetic overflows on indices near `isize::MIN` (a panic in
+//! a build with overflow checks). So the text is checked first, line by line, as tobj
+//! reads it: every vertex (three numbers, finite in f32 after an optional w, within the
+//! scene's coordinate limit) and every face's vertex references (at most v/vt/vn, each
+//! in range). tobj then reads text it accepts; a failure it still finds is placed at the
+//! line it was reading (`LineCounter`). Lines end at LF or CR LF, or at a lone CR (old
+//! Mac OS files, which tobj would read as one line).
 
+use super::limits::MAX_COORDINATE;
 use crate::error::{Error, Result};
 use crate::geometry::triangle::is_proper_triangle;
 use glam::Vec3;
+use std::borrow::Cow;
+use std::io::{BufRead, Read};
 
 /// A loaded mesh: its proper triangles and how many degenerate ones (zero area) were
 /// dropped. Zero-area triangles can never be hit and must not reach the BVH.
@@ -17,30 +26,29 @@ pub struct MeshTriangles {
 
 /// Parse OBJ text. `path` is only used in messages.
 pub fn parse_obj(path: &str, text: &str) -> Result<MeshTriangles> {
+    let fail = |line: usize, message: String| Error::Obj {
+        path: path.to_string(),
+        line,
+        message,
+    };
+    let text = with_lf_line_ends(text);
+    check_obj(&text).map_err(|(line, message)| fail(line, message))?;
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
     };
-    let mut reader = std::io::BufReader::new(text.as_bytes());
+    let mut reader = LineCounter {
+        text: text.as_bytes(),
+        position: 0,
+    };
     let (models, _) = tobj::load_obj_buf(&mut reader, &options, |_| Ok(Default::default()))
-        .map_err(|e| Error::Obj {
-            path: path.to_string(),
-            line: find_bad_line(text),
-            message: format!("malformed OBJ ({e})"),
-        })?;
+        .map_err(|e| fail(reader.line(), format!("malformed OBJ ({e})")))?;
     let mut triangles = Vec::new();
     let mut degenerate = 0;
     for model in &models {
         let mesh = &model.mesh;
-        if let Some(k) = mesh.positions.iter().position(|p| !p.is_finite()) {
-            return Err(Error::Obj {
-                path: path.to_string(),
-                line: nth_vertex_line(text, k / 3),
-                message: "vertex coordinate is not a finite number".into(),
-            });
-        }
         let vertex = |i: u32| {
             let i = i as usize * 3;
             Vec3::new(
@@ -59,11 +67,10 @@ pub fn parse_obj(path: &str, text: &str) -> Result<MeshTriangles> {
         }
     }
     if triangles.is_empty() {
-        return Err(Error::Obj {
-            path: path.to_string(),
-            line: 0,
-            message: format!("no usable triangles ({degenerate} degenerate faces)"),
-        });
+        return Err(fail(
+            0,
+            format!("no usable triangles ({degenerate} degenerate faces)"),
+        ));
     }
     Ok(MeshTriangles {
         triangles,
@@ -71,55 +78,169 @@ pub fn parse_obj(path: &str, text: &str) -> Result<MeshTriangles> {
     })
 }
 
-/// 1-based line of the `k`-th (0-based) `v` statement.
-fn nth_vertex_line(text: &str, k: usize) -> usize {
-    text.lines()
-        .enumerate()
-        .filter(|(_, l)| l.trim_start().starts_with("v "))
-        .nth(k)
-        .map_or(0, |(n, _)| n + 1)
+/// The text with every lone CR (not followed by LF) made an LF.
+fn with_lf_line_ends(text: &str) -> Cow<'_, str> {
+    let bytes = text.as_bytes();
+    let lone_cr = |i: usize| bytes[i] == b'\r' && bytes.get(i + 1) != Some(&b'\n');
+    if !(0..bytes.len()).any(lone_cr) {
+        return Cow::Borrowed(text);
+    }
+    // A CR is one byte of one char: replacing chars keeps the text UTF-8.
+    let lf = |(i, c): (usize, char)| if lone_cr(i) { '\n' } else { c };
+    Cow::Owned(text.char_indices().map(lf).collect())
 }
 
-/// Find the first line tobj would reject: a vertex without three numbers, or a face with a
-/// missing, unparsable or out-of-range vertex index. 0 if none is found.
-fn find_bad_line(text: &str) -> usize {
-    let vertex_count = text
-        .lines()
-        .filter(|l| l.trim_start().starts_with("v "))
-        .count() as i64;
-    let mut seen = 0i64;
-    for (n, line) in text.lines().enumerate() {
+/// A reader over the text that knows the line of the last byte tobj took: tobj reads a
+/// line at a time and stops at the first it cannot parse.
+struct LineCounter<'t> {
+    text: &'t [u8],
+    position: usize,
+}
+
+impl LineCounter<'_> {
+    /// 1-based line of the last byte read.
+    fn line(&self) -> usize {
+        let end = self.position.saturating_sub(1);
+        1 + self.text[..end].iter().filter(|&&b| b == b'\n').count()
+    }
+}
+
+impl Read for LineCounter<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = (&self.text[self.position..]).read(buf)?;
+        self.position += n;
+        Ok(n)
+    }
+}
+
+impl BufRead for LineCounter<'_> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        Ok(&self.text[self.position..])
+    }
+
+    fn consume(&mut self, amount: usize) {
+        self.position = (self.position + amount).min(self.text.len());
+    }
+}
+
+/// Check what tobj would take on trust: vertices and face references. `Err` is
+/// (1-based line, message).
+fn check_obj(text: &str) -> Result<(), (usize, String)> {
+    // Positions, texture coordinates and normals in the whole file (a positive index
+    // may name one defined further on; tobj resolves them when the object ends).
+    let mut totals = [0usize; 3];
+    for line in text.split('\n') {
+        match line.split_whitespace().next() {
+            Some("v") => totals[0] += 1,
+            Some("vt") => totals[1] += 1,
+            Some("vn") => totals[2] += 1,
+            _ => {}
+        }
+    }
+    let mut seen = [0usize; 3];
+    for (n, line) in text.split('\n').enumerate() {
+        let at = |message: String| (n + 1, message);
         let mut words = line.split_whitespace();
         match words.next() {
             Some("v") => {
-                seen += 1;
-                let ok = words.take(3).filter(|w| w.parse::<f32>().is_ok()).count() == 3;
-                if !ok {
-                    return n + 1;
-                }
+                check_vertex(words).map_err(at)?;
+                seen[0] += 1;
             }
-            Some("f") => {
+            Some("vt") => seen[1] += 1,
+            Some("vn") => seen[2] += 1,
+            Some(statement @ ("f" | "l")) => {
                 let mut count = 0;
-                for w in words {
+                for word in words {
+                    check_reference(word, seen, totals).map_err(at)?;
                     count += 1;
-                    let index = w.split('/').next().unwrap_or("").parse::<i64>();
-                    let in_range = match index {
-                        Ok(i) if i > 0 => i <= vertex_count,
-                        Ok(i) if i < 0 => -i <= seen,
-                        _ => false,
-                    };
-                    if !in_range {
-                        return n + 1;
-                    }
                 }
-                if count < 3 {
-                    return n + 1;
+                if statement == "f" && count < 3 {
+                    return Err(at(format!(
+                        "a face needs at least three vertices, got {count}"
+                    )));
                 }
             }
             _ => {}
         }
     }
-    0
+    Ok(())
+}
+
+/// A `v` line's words after `v`: x y z, then an optional w (tobj divides by it) or an
+/// r g b colour (ignored). The position, as tobj computes it in f32, must be finite
+/// and within the coordinate limit.
+fn check_vertex<'a>(mut words: impl Iterator<Item = &'a str>) -> Result<(), String> {
+    let mut p = [0.0f32; 3];
+    for x in &mut p {
+        let word = words
+            .next()
+            .ok_or("a vertex needs three coordinates (x y z)")?;
+        *x = word
+            .parse()
+            .map_err(|_| format!("vertex coordinate '{word}' is not a number"))?;
+    }
+    let rest: Vec<&str> = words.collect();
+    if let [w] = rest[..] {
+        let w: f32 = w
+            .parse()
+            .map_err(|_| format!("vertex weight w '{w}' is not a number"))?;
+        if w == 0.0 {
+            return Err("vertex weight w is zero".into());
+        }
+        for x in &mut p {
+            *x /= w;
+        }
+    }
+    if let Some(x) = p.iter().find(|x| !x.is_finite()) {
+        return Err(format!(
+            "vertex coordinate is not a finite number ({x} in f32)"
+        ));
+    }
+    if let Some(x) = p.iter().find(|x| x.abs() as f64 > MAX_COORDINATE) {
+        return Err(format!(
+            "vertex coordinate {x:e} is too large: the scene must lie within ±{MAX_COORDINATE:e} on every axis (f32 intersection tests overflow beyond)"
+        ));
+    }
+    Ok(())
+}
+
+/// One vertex reference of a face or line, `v`, `v/vt`, `v//vn` or `v/vt/vn`: indices
+/// from 1, or negative, counting back from the last defined so far. Each given index
+/// must name one that exists (`seen` so far, `totals` in the file).
+fn check_reference(word: &str, seen: [usize; 3], totals: [usize; 3]) -> Result<(), String> {
+    const KINDS: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+    let parts: Vec<&str> = word.split('/').collect();
+    if parts.len() > 3 {
+        return Err(format!(
+            "face vertex '{word}' has {} parts: at most three, v/vt/vn",
+            parts.len()
+        ));
+    }
+    if parts[0].is_empty() {
+        return Err(format!("face vertex '{word}' has no vertex index"));
+    }
+    for (k, part) in parts.iter().enumerate() {
+        if part.is_empty() {
+            continue;
+        }
+        let index: i64 = part
+            .parse()
+            .map_err(|_| format!("face vertex '{word}': '{part}' is not an index"))?;
+        let in_range = if index > 0 {
+            index as u64 <= totals[k] as u64
+        } else {
+            index < 0 && index.unsigned_abs() <= seen[k] as u64
+        };
+        if !in_range {
+            return Err(format!(
+                "face vertex '{word}': {} index {index} out of range ({} defined{})",
+                KINDS[k],
+                if index < 0 { seen[k] } else { totals[k] },
+                if index < 0 { " so far" } else { "" }
+            ));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

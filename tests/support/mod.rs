@@ -25,6 +25,23 @@ pub fn builtin(name: &str, width: u32, spp: u32) -> Scene {
     Scene::load(name, o).unwrap()
 }
 
+/// A built-in scene at a small size with `keys` (TOML lines) added to its `[camera]`
+/// table.
+pub fn builtin_with_camera(name: &str, keys: &str, width: u32, spp: u32) -> Scene {
+    use raytracer::scene::{compile, SceneSource};
+    let mut source = SceneSource::builtin(name).unwrap();
+    let text = source
+        .text
+        .replacen("[camera]\n", &format!("[camera]\n{keys}\n"), 1);
+    source.text = std::borrow::Cow::Owned(text);
+    let overrides = Overrides {
+        width: Some(width),
+        spp: Some(spp),
+        max_depth: None,
+    };
+    compile(&source, &source.parse().unwrap(), overrides).unwrap()
+}
+
 /// Render with `settings` on a pool of `threads` threads.
 pub fn render_settings(
     scene: &Scene,
@@ -193,6 +210,8 @@ pub fn transform_scene(scene: &Scene, scale: f32, offset: glam::Vec3) -> Scene {
     cam.corner = p(cam.corner);
     cam.pixel_du *= scale;
     cam.pixel_dv *= scale;
+    cam.lens_u *= scale;
+    cam.lens_v *= scale;
     s.bounds = Aabb::new(p(s.bounds.min), p(s.bounds.max));
     s
 }

@@ -1,0 +1,34 @@
+//! `raytracer merge PART... -o OUT`: check the part files, put them together, write the
+//! frame and one summary line.
+
+use super::options::MergeOptions;
+use raytracer::budget::{Budget, Limit};
+use raytracer::Error;
+use std::time::Instant;
+
+/// Merge `o.parts` into `o.output`; nothing is written if any part is refused.
+pub fn run(o: &MergeOptions) -> anyhow::Result<()> {
+    let start = Instant::now();
+    let budget = o.max_memory.map_or_else(Budget::machine, Budget::cap);
+    let merged = raytracer::merge_parts_within(&o.parts, budget).map_err(|e| match e {
+        Error::OutOfMemory {
+            limited_by: Limit::Cap,
+            ..
+        } => anyhow::Error::new(e).context("--max-memory"),
+        e => e.into(),
+    })?;
+    merged.film.write(&o.output)?;
+    if o.notes {
+        to_stderr!(
+            "merged {} parts of {} ({}x{}, {} spp) in {:.3} s -> {}",
+            o.parts.len(),
+            merged.scene,
+            merged.film.width,
+            merged.film.height,
+            merged.spp,
+            start.elapsed().as_secs_f64(),
+            o.output.display()
+        );
+    }
+    Ok(())
+}
