@@ -5,7 +5,7 @@
 //!   quad light's 10 samples (light sample points, shadow rays and the specular `pow`
 //!   included), W lanes at a time;
 //! - `shading/render/SCENE/W`: a whole small render (200 px wide, 2 samples a pixel, one
-//!   thread) of the shading-bound seed scenes.
+//!   thread) of the shading-bound scenes of the original program.
 //!
 //! Before timing, every width is checked to give the same bits. `cargo bench --bench
 //! shading`; throughput is in surface points (Phong) and camera samples (renders) per

@@ -3,7 +3,7 @@
 //!
 //! Scene keys (`[camera]`): `width`, `aspect_ratio`, `samples_per_pixel`, `max_depth`,
 //! `vfov`, `look_from`, `look_at`, `up`, `defocus_angle`, `focus_dist`. The set-up is
-//! computed in f64, as the seed did, and stored as f32 for the tracers.
+//! computed in f64, as the original program did, and stored as f32 for the tracers.
 //!
 //! The viewport lies `focus_dist` in front of `look_from` and is sized by it. With a
 //! `defocus_angle` above zero, each camera sample starts at a uniform point of the lens
@@ -17,7 +17,7 @@ use crate::lanes::math::sin_cos_turns;
 use crate::lanes::{Lane, V3};
 use glam::{DVec3, Vec3};
 
-/// The seed's lens settings: where the viewport lies, and the lens's opening.
+/// The original program's lens settings: where the viewport lies, and the lens's opening.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Lens {
     /// Distance from `look_from` to the plane in focus, which holds the viewport (> 0).
@@ -28,7 +28,7 @@ pub struct Lens {
 }
 
 impl Lens {
-    /// The seed's default: a pinhole, the viewport one unit away.
+    /// The original program's default: a pinhole, the viewport one unit away.
     pub const PINHOLE: Lens = Lens {
         focus_dist: 1.0,
         defocus_angle: 0.0,
@@ -186,7 +186,7 @@ pub fn concentric_disk<L: Lane>(u: L, v: L) -> (L, L) {
 const ROUNDING: f64 = 1.0 / (1u64 << 22) as f64;
 
 /// Image height from width and aspect ratio: `trunc(width / aspect)`, at least 1 (the
-/// seed's rule: 800 at 16:9 gives 450).
+/// original program's rule: 800 at 16:9 gives 450).
 pub fn image_height(width: u32, aspect: f64) -> u32 {
     ((width as f64 / aspect) as u32).max(1)
 }

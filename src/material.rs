@@ -7,7 +7,7 @@
 use crate::lanes::{Lane, V3};
 use glam::Vec3;
 
-/// Phong coefficients. The seed's defaults are ka = kd = ks = 0.5.
+/// Phong coefficients. The original program's defaults are ka = kd = ks = 0.5.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Phong {
     pub albedo: Vec3,
@@ -94,7 +94,7 @@ pub fn refract(d: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
 }
 
 /// A uniform random unit vector from two uniform numbers (z uniform in [−1, 1], azimuth
-/// uniform in [0, 2π)), as in the seed.
+/// uniform in [0, 2π)), as in the original program.
 #[inline]
 pub fn random_unit_vector(xi1: f32, xi2: f32) -> Vec3 {
     let z = 1.0 - 2.0 * xi1;
@@ -108,7 +108,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn schlick_r0_matches_the_seed_table() {
+    fn schlick_r0_matches_the_original_table() {
         // docs/seed-semantics.md, "PhongMirror": n = 0.02, 0.1, 0.2 give r₀ = 0.9231,
         // 0.6694, 0.4444.
         for (n, r0) in [(0.02, 0.9231), (0.1, 0.6694), (0.2, 0.4444)] {

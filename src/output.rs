@@ -45,8 +45,9 @@ impl ImageFormat {
     }
 }
 
-/// Gamma 2 (square root) and truncation to 8 bits, as the seed; values are clamped to
-/// [0, 1] first (the seed wrote values above 1 past the PPM maximum) and NaN becomes 0.
+/// Gamma 2 (square root) and truncation to 8 bits, as the original program does; values
+/// are clamped to [0, 1] first (the original program wrote values above 1 past the PPM
+/// maximum) and NaN becomes 0.
 #[inline]
 pub fn quantize(c: f32) -> u8 {
     let c = if c > 0.0 { c.min(1.0) } else { 0.0 };

@@ -7,9 +7,9 @@
 //! fixed shifts and multiplies only, so the packet tracers can evaluate it lane-wise.
 //!
 //! A [`Sampler`] (`--sampler`) decides how the numbers are spread: independent (the
-//! seed's), stratified (correlated multi-jittered) or Owen-scrambled Sobol. The tracer
-//! asks `sampler.key(x, y, sample)` once per camera sample and then `key.uniform(vertex,
-//! slot)` wherever it needs a number, whatever the kind.
+//! original program's), stratified (correlated multi-jittered) or Owen-scrambled Sobol.
+//! The tracer asks `sampler.key(x, y, sample)` once per camera sample and then
+//! `key.uniform(vertex, slot)` wherever it needs a number, whatever the kind.
 
 use crate::lanes::Lane;
 
@@ -88,7 +88,7 @@ impl Sampler {
         }
     }
 
-    /// The independent sampler (the seed's behaviour).
+    /// The independent sampler (the original program's behaviour).
     pub fn independent(seed: u32) -> Self {
         Self::new(SamplerKind::Independent, seed, 1)
     }
@@ -495,7 +495,7 @@ pub mod slot {
     }
 }
 
-/// The most samples any light takes (area lights take 10, as in the seed).
+/// The most samples any light takes (area lights take 10, as in the original program).
 pub const MAX_LIGHT_SAMPLES: u32 = 10;
 
 #[cfg(test)]
@@ -587,8 +587,10 @@ mod tests {
         assert!((var - 1.0 / 12.0).abs() < 0.002, "variance {var}");
     }
 
-    /// The hash key and numbers of the renderer before samplers existed.
-    fn old_uniform(seed: u32, x: u32, y: u32, sample: u32, vertex: u32, slot: u32) -> f32 {
+    /// The independent sampler's number written out as one chain of hashes: (seed, x, y,
+    /// sample) makes the key, (vertex, slot) the dimension, and the hash of their xor the
+    /// number.
+    fn plain_uniform(seed: u32, x: u32, y: u32, sample: u32, vertex: u32, slot: u32) -> f32 {
         let h = hash_u32(hash_u32(seed).wrapping_add(x));
         let h = hash_u32(h.wrapping_add(y));
         let key = hash_u32(h.wrapping_add(sample));
@@ -597,14 +599,17 @@ mod tests {
     }
 
     #[test]
-    fn independent_sampler_is_the_old_one_bit_for_bit() {
+    fn independent_sampler_is_the_plain_hash_chain_bit_for_bit() {
         let sampler = Sampler::new(SamplerKind::Independent, 5, 64);
         for (x, y, s, v, sl) in [(0, 0, 0, 0, 0), (3, 9, 17, 2, 41), (799, 449, 49, 7, 4)] {
-            let old = old_uniform(5, x, y, s, v, sl);
-            assert_eq!(sampler.key(x, y, s).uniform(v, sl).to_bits(), old.to_bits());
+            let plain = plain_uniform(5, x, y, s, v, sl);
+            assert_eq!(
+                sampler.key(x, y, s).uniform(v, sl).to_bits(),
+                plain.to_bits()
+            );
             assert_eq!(
                 SampleKey::new(5, x, y, s).uniform(v, sl).to_bits(),
-                old.to_bits()
+                plain.to_bits()
             );
         }
     }

@@ -55,9 +55,9 @@ fn reference(scene: &Scene, accel: &Accel, spp: u32) -> Film {
 ///   MSE as +ε and shifts the slope by about +ε/MSE(64) ≈ +0.001.
 /// - Each MSE is an average over 32·32·3 = 3072 channel errors with heavy tails (pixels
 ///   on the shadow edges and the light's border carry most of the variance), so one MSE
-///   scatters by several percent and the fitted slope by a few hundredths. Measured while
-///   writing this test: −0.91 on 24x24 pixels with 3 seeds, −1.04 on 32x32 with 4 seeds
-///   (the setting kept). ±0.15 is about 1.5 times the largest deviation seen: it still
+///   scatters by several percent and the fitted slope by a few hundredths. Measured:
+///   −0.91 on 24x24 pixels with 3 seeds, −1.04 on 32x32 with 4 seeds (the setting
+///   kept). ±0.15 is about 1.5 times the largest deviation seen: it still
 ///   fails on a wrong exponent (a sampler with correlated samples gives about −0.5 or
 ///   flattens against a bias), not on noise. Averaging four seeds keeps one unlucky draw
 ///   from deciding it.

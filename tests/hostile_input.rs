@@ -2,11 +2,11 @@
 //! file and line (and column for a scene), or loads and renders finite pixels. Through
 //! the library (`Scene::load`), so the messages are checked without the command line.
 //!
-//! Where values meet f32 (`scene::limits`, `scenes/README.md` "Ranges"): before these
+//! Where values meet f32 (`scene::limits`, `scenes/README.md` "Ranges"): without these
 //! rules, the built-in `cornell` seen from `look_from = [1e30, 1e30, 1e30]` or with a
-//! sphere of radius 1e30 made rays with NaN directions or origins, which the BVH's slab
-//! test reads as "no constraint": every slot of a node was entered, empty ones too, and
-//! the traversal indexed past the pools (a panic at every packet width).
+//! sphere of radius 1e30 makes rays with NaN directions or origins, which the BVH's slab
+//! test reads as "no constraint": every slot of a node is entered, empty ones too, and
+//! the traversal indexes past the pools (a panic at every packet width).
 
 mod support;
 

@@ -1,7 +1,7 @@
 //! Every built-in scene: renders without NaN or infinity, renders the same bits on any
 //! number of threads, and looks like the original program's picture of it (block means
-//! against `tests/data/seed-renders/`, the seed's own 800-pixel renders); and the scenes
-//! of the comparison with Embree are the built-in ones cut down.
+//! against `tests/data/seed-renders/`, the original program's own 800-pixel renders); and
+//! the scenes of the comparison with Embree are the built-in ones cut down.
 
 mod support;
 
@@ -67,24 +67,25 @@ fn block_means(linear: &[[f64; 3]], width: usize, height: usize, block: usize) -
     out
 }
 
-/// Undo the seed's output transform (truncation of 255.999 · √c), taking the middle of
-/// each level.
-fn seed_linear(v: u8) -> f64 {
+/// Undo the original program's output transform (truncation of 255.999 · √c), taking the
+/// middle of each level.
+fn original_linear(v: u8) -> f64 {
     ((v as f64 + 0.5) / 255.999).min(1.0).powi(2)
 }
 
-/// Our render at 1/5 of the seed's size against the seed's PNG: 8×8 blocks of ours
-/// (40×40 of the seed's), averaged in linear light, must agree within `MAX_BLOCK` levels
-/// of 255, and on average within `MEAN_BLOCK`. Both images are noisy (random jitter and
-/// area-light samples); the bounds are above the differences seen here (max 3.4, mean
-/// 0.42, in `mixed`) and far below what a shading error gives (the ambient term doubled:
-/// 28 levels in `bunny`).
+/// Our render at 1/5 of the original program's size against the original program's PNG:
+/// 8×8 blocks of ours (40×40 of the original program's), averaged in linear light, must
+/// agree within `MAX_BLOCK` levels of 255, and on average within `MEAN_BLOCK`. Both images
+/// are noisy (random jitter and area-light samples); the bounds are above the differences
+/// seen here (max 3.4, mean 0.42, in `mixed`) and far below what a shading error gives
+/// (the ambient term doubled: 28 levels in `bunny`).
 #[test]
-fn looks_like_the_seed_render() {
+fn looks_like_the_original_render() {
     const MAX_BLOCK: f64 = 5.0;
     const MEAN_BLOCK: f64 = 0.8;
-    // Every scene of the seed; `bunny-closeup` is ours and has no seed render.
-    let seed_scenes = [
+    // Every scene of the original program; `bunny-closeup` is ours and has no render
+    // there.
+    let original_scenes = [
         "bunny",
         "cornell",
         "cornell-area-light",
@@ -93,15 +94,16 @@ fn looks_like_the_seed_render() {
         "quads",
         "spheres",
     ];
-    for name in seed_scenes {
+    for name in original_scenes {
         let path = format!(
             "{}/tests/data/seed-renders/{name}.png",
             env!("CARGO_MANIFEST_DIR")
         );
-        let seed = image::open(&path).unwrap().to_rgb8();
-        let (sw, sh) = (seed.width() as usize, seed.height() as usize);
-        // 20 spp: our pixels cover 5×5 of the seed's, so the edges of the bright area
-        // light need more samples than the seed's 5 per pixel to keep block noise low.
+        let original = image::open(&path).unwrap().to_rgb8();
+        let (sw, sh) = (original.width() as usize, original.height() as usize);
+        // 20 spp: our pixels cover 5×5 of the original program's, so the edges of the
+        // bright area light need more samples than the original program's 5 per pixel to
+        // keep block noise low.
         let scene = builtin(name, (sw / 5) as u32, 20);
         assert_eq!(
             (
@@ -116,7 +118,10 @@ fn looks_like_the_seed_render() {
             .iter()
             .map(|p| p.to_array().map(|c| (c as f64).clamp(0.0, 1.0)))
             .collect();
-        let theirs: Vec<[f64; 3]> = seed.pixels().map(|p| p.0.map(seed_linear)).collect();
+        let theirs: Vec<[f64; 3]> = original
+            .pixels()
+            .map(|p| p.0.map(original_linear))
+            .collect();
         let a = block_means(&ours, film.width as usize, film.height as usize, 8);
         let b = block_means(&theirs, sw, sh, 40);
         assert_eq!(a.len(), b.len());

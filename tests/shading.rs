@@ -78,9 +78,10 @@ fn phong_on_a_plane_under_a_point_light() {
 }
 
 #[test]
-fn light_behind_an_open_quad_still_gives_the_seed_specular() {
-    // The seed does not gate the specular term by N·L > 0: a light under an open quad
-    // lights its top side with specular only (the shadow ray passes the quad's own plane).
+fn light_behind_an_open_quad_still_gives_the_original_specular() {
+    // The original program does not gate the specular term by N·L > 0: a light under an
+    // open quad lights its top side with specular only (the shadow ray passes the quad's
+    // own plane).
     let mut scene =
         scene_from_toml(&PHONG_PLANE.replace("center = [0, 1, 0]", "center = [1, -0.05, 0]"));
     let accel = Accel::build(&mut scene, AccelKind::Bvh);
@@ -257,7 +258,7 @@ material = "glass"
 #[test]
 fn metal_absorption_is_black() {
     // A grazing ray on fuzz-1 metal: every scattered direction that points into the
-    // surface must give black, never the albedo (the seed's bug).
+    // surface must give black, never the albedo (the original program's bug).
     let text = r#"
 background = [1, 1, 1]
 [camera]

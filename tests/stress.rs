@@ -220,9 +220,9 @@ fn icosphere_is_watertight_through_the_bvh() {
     assert_eq!(leaks, 0, "first leak: {first_leak:?}");
 }
 
-/// The seed's planar quad test (t from the plane, then 0 ≤ α, β ≤ 1 inclusive, rays with
-/// |n · d| < 1e-8 rejected), on the pool's corner, edges, normal and w, operation for
-/// operation: for the record only.
+/// The original program's planar quad test (t from the plane, then 0 ≤ α, β ≤ 1
+/// inclusive, rays with |n · d| < 1e-8 rejected), on the pool's corner, edges, normal and
+/// w, operation for operation: for the record only.
 fn planar_quad(q: &Quad, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
     let denom = q.normal.dot(ray.dir);
     if denom.abs() < 1e-8 {
@@ -290,7 +290,7 @@ struct QuadLeaks {
     /// Answers that differ from the scalar BVH's, bit for bit: the linear scan's and the
     /// packets' (t, primitive id), `occluded_packet`'s lanes.
     differ: u64,
-    /// The seed's planar test on the same rays (for the record).
+    /// The original program's planar test on the same rays (for the record).
     planar: u64,
 }
 
@@ -304,8 +304,8 @@ impl QuadLeaks {
 /// Rays in groups of up to eight (one packet each): every ray must hit a quad of one of
 /// `objects` at its target, at distance |target − origin| (relative 1e-4 plus a few ulps
 /// of the coordinates), through every path, and every path must give the scalar BVH's
-/// answer bit for bit; the seed's planar test runs on the same rays against the quads of
-/// those objects, for the record. `scene` holds the objects.
+/// answer bit for bit; the original program's planar test runs on the same rays against
+/// the quads of those objects, for the record. `scene` holds the objects.
 fn quad_rays(scene: &Scene, groups: &[Vec<(Vec3, Vec3)>], objects: &[u32], leaks: &mut QuadLeaks) {
     use raytracer::accel::packet::{RayPacket, MAX_WIDTH};
     use wide::f32x8;
@@ -416,17 +416,17 @@ fn filler_quads(centre: Vec3, far: f32) -> String {
 /// quads tested beside the BVH's tree) and with filler quads (in the tree); every path to
 /// the quad kernel (see `quad_rays`). For every box: 12 edges × 48 random points, the 8
 /// corners, and for each target 3 origins inside (random, 2% to 98% of the extent from the
-/// min corner) and, for each, one outside on the line through the target (beyond it by
-/// 0.1 to 2 times the inside distance, so the ray enters the box at the target). A ray
-/// from inside hits the box wherever it is aimed, and from outside it crosses the surface
-/// at the target: every ray must hit the box there. The seed's planar test on the same
-/// rays is run for the record and its leak count printed (α rounds below 0 on one face
-/// and β above 1 on the other).
+/// min corner) and, for each, one outside on the line through the target (beyond it by 0.1
+/// to 2 times the inside distance, so the ray enters the box at the target). A ray from
+/// inside hits the box wherever it is aimed, and from outside it crosses the surface at
+/// the target: every ray must hit the box there. The original program's planar test on the
+/// same rays is run for the record and its leak count printed (α rounds below 0 on one
+/// face and β above 1 on the other).
 ///
-/// Checked it can fail: run with the seed's planar quad test in place of the watertight
-/// one, it fails with 228 leaks on each closest-hit path (BVH, linear, packets 8 and 4
-/// wide) and 158 rays not occluded on each any-hit path, of 56 064 rays (and 6 answers
-/// differing between paths).
+/// Checked it can fail: run with the original program's planar quad test in place of the
+/// watertight one, it fails with 228 leaks on each closest-hit path (BVH, linear, packets
+/// 8 and 4 wide) and 158 rays not occluded on each any-hit path, of 56 064 rays (and 6
+/// answers differing between paths).
 #[test]
 fn boxes_are_watertight_at_edges_and_corners() {
     let boxes = [
@@ -510,16 +510,16 @@ fn boxes_are_watertight_at_edges_and_corners() {
     assert_eq!(leaks.total(), 0, "{leaks:?}");
 }
 
-/// Two quads sharing an edge (same corner Q and edge u, so the same two vertices, bit
-/// for bit), their other edges at random angles to each other (a fold, like two walls of
-/// a Cornell box), near the origin and at 1e3..1e4: rays from inside the fold (Q + a·u +
+/// Two quads sharing an edge (same corner Q and edge u, so the same two vertices, bit for
+/// bit), their other edges at random angles to each other (a fold, like two walls of a
+/// Cornell box), near the origin and at 1e3..1e4: rays from inside the fold (Q + a·u +
 /// b₁·v₁ + b₂·v₂, a, b₁, b₂ > 0) aimed at random points of the shared edge (2% to 98% of
 /// it), and from the other side on the same line: each must hit one of the two quads at
-/// the target, through every path (see `quad_rays`). The seed's planar test's leaks are
-/// printed for the record.
+/// the target, through every path (see `quad_rays`). The original program's planar test's
+/// leaks are printed for the record.
 ///
-/// Checked it can fail: run with the seed's planar quad test in place of the watertight
-/// one, it fails with 7 372 leaks of 36 864 rays on every path.
+/// Checked it can fail: run with the original program's planar quad test in place of the
+/// watertight one, it fails with 7 372 leaks of 36 864 rays on every path.
 #[test]
 fn quads_sharing_an_edge_are_watertight() {
     let mut rng = Rng(0xed6e);
@@ -640,9 +640,9 @@ fn render_film(scene: &Scene, seed: u32) -> raytracer::render::Film {
 ///
 /// Checked it can fail: with `spawn_ray` returning the hit point itself (zero offset, no
 /// outward rounding), the test fails on acne (first failure: bunny, untranslated); with
-/// `integrator::T_MIN` set to the seed's 1e-4, it fails on the image comparison
-/// (bunny-closeup scaled by 1e-3: difference 0.0019, a sixth of the noise, from lost
-/// shadows).
+/// `integrator::T_MIN` set to the original program's 1e-4, it fails on the image
+/// comparison (bunny-closeup scaled by 1e-3: difference 0.0019, a sixth of the noise, from
+/// lost shadows).
 #[test]
 fn builtin_scenes_far_from_the_origin_and_small() {
     let mut report = Vec::new();
@@ -685,9 +685,10 @@ fn builtin_scenes_far_from_the_origin_and_small() {
 /// ambient term, while a point 3 units away is lit. At scale 1e-3 the shadow rays meet
 /// the card at t ≈ 5e-5 and the sphere's near side at t ≈ 5e-8 to 1.3e-4.
 ///
-/// Checked it can fail: with `integrator::T_MIN` set to the seed's 1e-4, the points under
-/// the card are lit at scale 1e-3 and the test fails. (The sphere's points stay dark
-/// then: a ray that starts past the near root still meets the sphere's far wall.)
+/// Checked it can fail: with `integrator::T_MIN` set to the original program's 1e-4, the
+/// points under the card are lit at scale 1e-3 and the test fails. (The sphere's points
+/// stay dark then: a ray that starts past the near root still meets the sphere's far
+/// wall.)
 #[test]
 fn contact_shadows_survive_at_small_scales() {
     let text = r#"

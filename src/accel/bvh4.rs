@@ -891,11 +891,12 @@ impl Bvh4 {
         )
     }
 
-    /// The seed's shadow test (`Accel::light_visible`): the light's own nearest hit,
-    /// then any occluder before it. The ray's constants are made once for both; the
-    /// watertight ones only for a quad or triangle that needs them (a point light, the
-    /// spheres and a quad whose plane the ray does not meet before the light need none:
-    /// `mixed` and `spheres` shadow rays test no triangle or quad edges at all).
+    /// The original program's shadow test (`Accel::light_visible`): the light's own
+    /// nearest hit, then any occluder before it. The ray's constants are made once for
+    /// both; the watertight ones only for a quad or triangle that needs them (a point
+    /// light, the spheres and a quad whose plane the ray does not meet before the light
+    /// need none: `mixed` and `spheres` shadow rays test no triangle or quad edges at
+    /// all).
     pub fn light_visible(
         &self,
         scene: &Scene,

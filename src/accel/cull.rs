@@ -181,8 +181,8 @@ pub struct CullTargets {
 }
 
 impl CullTargets {
-    /// `None` for the linear scan (it has no tree to skip, and is kept as the seed's
-    /// algorithm).
+    /// `None` for the linear scan (it has no tree to skip, and is kept as the original
+    /// program's algorithm).
     pub fn new(scene: &Scene, accel: &Accel) -> Option<CullTargets> {
         let Accel::Bvh(b) = accel else {
             return None;

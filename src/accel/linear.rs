@@ -1,4 +1,5 @@
-//! The brute-force scan, the seed's algorithm, kept to measure the BVH against.
+//! The brute-force scan, the original program's algorithm, kept to measure the BVH
+//! against.
 
 use super::TraversalStats;
 use crate::geometry::aabb::SlabRay;
@@ -28,7 +29,7 @@ impl PrimRay {
 }
 
 /// Triangles grouped by object: a mesh (more than one triangle) is tested only when its
-/// bounding box is hit, as the seed did.
+/// bounding box is hit, as the original program did.
 #[derive(Clone, Debug)]
 pub struct LinearScan {
     groups: Vec<TriangleGroup>,

@@ -1,7 +1,7 @@
 //! Acceleration structures: which primitives a ray has to test.
 //!
-//! - `linear`: the seed's algorithm: every sphere and quad, every triangle of a mesh
-//!   whose bounding box is hit. Kept so the BVH's gain is measurable in one run.
+//! - `linear`: the original program's algorithm: every sphere and quad, every triangle of
+//!   a mesh whose bounding box is hit. Kept so the BVH's gain is measurable in one run.
 //! - `bvh4`: a binned-SAH BVH (`build`) collapsed to 4-wide nodes (packets, shadow rays)
 //!   and 8-wide nodes (single rays' closest hits); the default.
 //!
@@ -159,9 +159,10 @@ impl Accel {
         }
     }
 
-    /// The seed's shadow test: is the nearest hit of the ray (from `t_min`, unbounded)
-    /// a primitive of `light`'s object? The linear scan answers with a closest-hit query;
-    /// the BVH finds the light's own nearest hit and then looks for any occluder before it.
+    /// The original program's shadow test: is the nearest hit of the ray (from `t_min`,
+    /// unbounded) a primitive of `light`'s object? The linear scan answers with a
+    /// closest-hit query; the BVH finds the light's own nearest hit and then looks for any
+    /// occluder before it.
     #[inline]
     pub fn light_visible(
         &self,

@@ -6,10 +6,10 @@
 //! The hit test is watertight: whether a ray passes through the quad is decided by the
 //! triangles' watertight edge functions (`triangle::shear`, `edge_functions`) on the
 //! quad's two halves (A, B, C) and (A, C, D), whose four vertices are computed once, when
-//! the scene is compiled. Quads that share an edge in the scene share its two vertices
-//! bit for bit (a box's corners are its exact min and max components), so the edge's
-//! function has the same sign, negated, on both and a ray through the edge hits at least
-//! one of them. The distance is the seed's, from the plane (see `plane_distance`).
+//! the scene is compiled. Quads that share an edge in the scene share its two vertices bit
+//! for bit (a box's corners are its exact min and max components), so the edge's function
+//! has the same sign, negated, on both and a ray through the edge hits at least one of
+//! them. The distance is the original program's, from the plane (see `plane_distance`).
 
 use super::triangle::{edge_functions, edge_functions_f64, inside_edges, shear, WatertightRay};
 use super::{Aabb, Ray};
@@ -18,7 +18,7 @@ use glam::{Vec3, Vec4, Vec4Swizzles};
 use std::ops::Range;
 use wide::f32x8;
 
-/// The seed's parallel-ray threshold on `|n · d|`.
+/// The original program's parallel-ray threshold on `|n · d|`.
 pub const PARALLEL_EPSILON: f32 = 1e-8;
 
 /// Quads, structure-of-arrays. Each holds the corner Q, edges u and v and
@@ -449,12 +449,12 @@ pub fn inside_quad<L: Lane>([e1, e2]: [[L; 3]; 2]) -> L::Mask {
     inside_edges(e1) | inside_edges(e2)
 }
 
-/// The seed's distance to the quad's plane (n, D), t = (D − n · o) / (n · d), and the
-/// lanes where it counts: t in `[t_min, t_max]` and |n · d| ≥ `PARALLEL_EPSILON`. Not
-/// the watertight test's own distance, interpolated from the vertices' depths: its
-/// error grows with the quad's size (up to ~1e-4 for a 555-unit Cornell wall), which
-/// made rays spawned off a wall meet that wall again; the plane's t is exact for
-/// axis-aligned quads.
+/// The original program's distance to the quad's plane (n, D), t = (D − n · o) / (n · d),
+/// and the lanes where it counts: t in `[t_min, t_max]` and |n · d| ≥ `PARALLEL_EPSILON`.
+/// Not the watertight test's own distance, interpolated from the vertices' depths: its
+/// error grows with the quad's size (up to ~1e-4 for a 555-unit Cornell wall), which made
+/// rays spawned off a wall meet that wall again; the plane's t is exact for axis-aligned
+/// quads.
 #[inline(always)]
 pub fn plane_distance<L: Lane>(
     normal: V3<L>,
@@ -471,9 +471,9 @@ pub fn plane_distance<L: Lane>(
 }
 
 /// The six outward-facing quads of the box with the given component-wise min and max
-/// corners, with their vertices made of those exact components (so faces sharing an
-/// edge share its vertices bit for bit). Corners and edges as the seed's, except that
-/// its z-min face pointed inward (see the README's differences). Faces too large for
+/// corners, with their vertices made of those exact components (so faces sharing an edge
+/// share its vertices bit for bit). Corners and edges as the original program's, except
+/// that its z-min face pointed inward (see the README's differences). Faces too large for
 /// `Quad::new` (|u × v|² not finite) are left out.
 pub fn box_faces(min: Vec3, max: Vec3) -> Vec<Quad> {
     let dx = Vec3::new(max.x - min.x, 0.0, 0.0);

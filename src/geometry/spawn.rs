@@ -1,8 +1,8 @@
-//! Robust secondary-ray origins (pbrt-v4 style): instead of the seed's fixed t_min = 1e-4,
-//! each hit point is recomputed from the primitive's own parameters, bounded in its
-//! floating-point error, and a new ray starts just outside that error box, on the side it
-//! leaves to. This avoids self-intersection at any distance from the origin (a fixed
-//! epsilon causes acne far away) and keeps contact shadows at small scales (a fixed
+//! Robust secondary-ray origins (pbrt-v4 style): instead of the original program's fixed
+//! t_min = 1e-4, each hit point is recomputed from the primitive's own parameters, bounded
+//! in its floating-point error, and a new ray starts just outside that error box, on the
+//! side it leaves to. This avoids self-intersection at any distance from the origin (a
+//! fixed epsilon causes acne far away) and keeps contact shadows at small scales (a fixed
 //! epsilon eats them).
 
 use super::Ray;

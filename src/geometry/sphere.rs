@@ -65,15 +65,15 @@ impl SpherePool {
         Aabb::new(self.center(i) - r, self.center(i) + r)
     }
 
-    /// Outward unit normal at a point on sphere `i`: (P − C) / r, as in the seed.
-    /// A zero-radius sphere has no normal; it returns +y rather than NaN.
+    /// Outward unit normal at a point on sphere `i`: (P − C) / r, as in the original
+    /// program. A zero-radius sphere has no normal; it returns +y rather than NaN.
     #[inline]
     pub fn normal(&self, i: usize, p: Vec3) -> Vec3 {
         sphere_normal::<f32>(V3::splat(self.center(i)), self.radius[i], V3::splat(p)).lane(0)
     }
 
     /// Distance to sphere `i` in `[t_min, t_max]`: the near root if it is in range, else the
-    /// far root (the seed's rule, so a ray starting inside hits the far wall).
+    /// far root (the original program's rule, so a ray starting inside hits the far wall).
     #[inline]
     pub fn intersect(&self, i: usize, ray: &SphereRay, t_min: f32, t_max: f32) -> Option<f32> {
         sphere_intersect_with(self.center(i), self.radius[i], ray, t_min, t_max)

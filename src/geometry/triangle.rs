@@ -64,7 +64,8 @@ impl TrianglePool {
         Aabb::from_points(&self.vertices(i))
     }
 
-    /// Unit geometric normal, normalise((b − a) × (c − a)), as in the seed (flat shading).
+    /// Unit geometric normal, normalise((b − a) × (c − a)), as in the original program
+    /// (flat shading).
     #[inline]
     pub fn normal(&self, i: usize) -> Vec3 {
         let [a, b, c] = self.vertices(i);
@@ -278,7 +279,8 @@ pub fn is_proper_triangle([a, b, c]: [Vec3; 3]) -> bool {
 }
 
 /// A point uniform over the triangle from two uniform numbers in [0, 1): fold the unit
-/// square onto the triangle (if ξ1 + ξ2 > 1 use 1 − ξ1, 1 − ξ2), as in the seed.
+/// square onto the triangle (if ξ1 + ξ2 > 1 use 1 − ξ1, 1 − ξ2), as in the original
+/// program.
 #[inline]
 pub fn sample_triangle([a, b, c]: [Vec3; 3], xi1: f32, xi2: f32) -> Vec3 {
     sample_triangle_lanes::<f32>([a, b, c].map(V3::splat), xi1, xi2).lane(0)

@@ -30,8 +30,9 @@ use glam::Vec3;
 
 /// Rays accept hits at t > 0 (the smallest positive normal float; the tests compare with
 /// `>=`): secondary rays start off their surface by the hit point's error bound
-/// (`geometry::spawn`) instead of the seed's t_min = 1e-4. A surface whose error bound is
-/// zero (a wall in the plane x = 0) yields t = 0 for its own spawned rays, excluded here.
+/// (`geometry::spawn`) instead of the original program's t_min = 1e-4. A surface whose
+/// error bound is zero (a wall in the plane x = 0) yields t = 0 for its own spawned rays,
+/// excluded here.
 pub const T_MIN: f32 = f32::MIN_POSITIVE;
 
 /// Rays traced, by kind, and the traversal work they took.
@@ -178,7 +179,7 @@ pub struct Tracer<'a> {
 }
 
 impl<'a> Tracer<'a> {
-    /// A tracer with the independent sampler (the seed's random numbers).
+    /// A tracer with the independent sampler (the original program's random numbers).
     pub fn new(scene: &'a Scene, accel: &'a Accel, seed: u32) -> Self {
         Self::with_sampler(scene, accel, Sampler::independent(seed))
     }

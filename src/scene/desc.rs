@@ -136,8 +136,8 @@ impl Default for CameraDesc {
     }
 }
 
-/// The seed's camera defaults and Phong's ka = kd = ks = 0.5 (`docs/seed-semantics.md`,
-/// "Camera").
+/// The original program's camera defaults and Phong's ka = kd = ks = 0.5
+/// (`docs/seed-semantics.md`, "Camera").
 mod defaults {
     use super::{AspectDesc, V3};
     pub fn width() -> i64 {

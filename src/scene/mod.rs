@@ -29,7 +29,7 @@ use std::collections::HashMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-/// Samples per area light (quad, triangle, box or mesh light), as in the seed.
+/// Samples per area light (quad, triangle, box or mesh light), as in the original program.
 pub const AREA_LIGHT_SAMPLES: u32 = 10;
 
 /// Most 1-to-4 subdivisions of a mesh (4⁶ = 4096 times the triangles).
@@ -229,7 +229,7 @@ pub enum LightShape {
 pub struct Light {
     /// The object that must be the nearest hit of a shadow ray for the sample to count.
     pub object: u32,
-    /// colour · intensity (no distance fall-off, as in the seed).
+    /// colour · intensity (no distance fall-off, as in the original program).
     pub radiance: Vec3,
     /// A copy of the object's primitives (they keep the pools' exact values, so the same
     /// kernels give the same distances as the pools do).
