@@ -1,7 +1,7 @@
 //! The BVH: node layout (`Node<W>`), the collapse of the binary build to 4-wide nodes and
-//! to 8-wide ones (`node8`), and the scalar traversals: closest hit over the 8-wide
-//! nodes, the any-hit occlusion test of shadow rays and the lanes a packet finishes alone
-//! over the 4-wide ones, which packets traverse too (`packet`).
+//! to 8-wide ones (`node8`), and the scalar traversals: closest hit and the any-hit
+//! occlusion test of shadow rays over the 8-wide nodes, and the lanes a packet finishes
+//! alone over the 4-wide ones, which packets traverse too (`packet`).
 //!
 //! A node holds the boxes of its children structure-of-arrays (`min_x[W]`, …), so one
 //! ray tests them all in one pass. Leaves hold up to four primitives of one kind,

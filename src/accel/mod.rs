@@ -2,8 +2,8 @@
 //!
 //! - `linear`: the original program's algorithm: every sphere and quad, every triangle of
 //!   a mesh whose bounding box is hit. Kept so the BVH's gain is measurable in one run.
-//! - `bvh4`: a binned-SAH BVH (`build`) collapsed to 4-wide nodes (packets, shadow rays)
-//!   and 8-wide nodes (single rays' closest hits); the default.
+//! - `bvh4`: a binned-SAH BVH (`build`) collapsed to 4-wide nodes (packets) and 8-wide
+//!   nodes (single rays: closest hits and shadow rays); the default.
 //!
 //! Both answer the same two questions with the same bits: the closest hit by the
 //! `(t, primitive id)` rule, and whether a shadow ray reaches a given light.

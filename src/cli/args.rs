@@ -294,8 +294,8 @@ impl From<Sampler> for SamplerKind {
 pub enum Accel {
     /// Brute force, with the mesh bounding-box pre-test (the original program's algorithm).
     Linear,
-    /// Bounding volume hierarchy (binned SAH): 4-wide nodes for packets and shadow rays,
-    /// 8-wide for single rays' closest hits.
+    /// Bounding volume hierarchy (binned SAH): 4-wide nodes for packets, 8-wide for
+    /// single rays.
     Bvh,
 }
 

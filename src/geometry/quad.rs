@@ -473,8 +473,8 @@ pub fn plane_distance<L: Lane>(
 /// The six outward-facing quads of the box with the given component-wise min and max
 /// corners, with their vertices made of those exact components (so faces sharing an edge
 /// share its vertices bit for bit). Corners and edges as the original program's, except
-/// that its z-min face pointed inward (see the README's differences). Faces too large for
-/// `Quad::new` (|u × v|² not finite) are left out.
+/// that its z-min face pointed inward (`docs/seed-semantics.md`, "Where this renderer
+/// differs"). Faces too large for `Quad::new` (|u × v|² not finite) are left out.
 pub fn box_faces(min: Vec3, max: Vec3) -> Vec<Quad> {
     let dx = Vec3::new(max.x - min.x, 0.0, 0.0);
     let dy = Vec3::new(0.0, max.y - min.y, 0.0);
