@@ -120,3 +120,18 @@ pub enum Error {
 
 /// `Result` with the library's [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// `message` with its control characters escaped (a newline as `\n`, ESC as `\u{1b}`):
+/// text that a bad file quotes into an error stays on one line and sends a terminal no
+/// command.
+pub fn one_line(message: &str) -> String {
+    let mut out = String::with_capacity(message.len());
+    for c in message.chars() {
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}

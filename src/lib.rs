@@ -44,6 +44,8 @@ mod renderer;
 mod settings;
 
 pub use accel::AccelKind;
+#[doc(hidden)]
+pub use error::one_line;
 pub use error::{Error, Result};
 pub use film::Film;
 pub use glam::Vec3;

@@ -16,7 +16,7 @@ fn main() -> ExitCode {
         Ok(code) => code,
         Err(e) if e.is::<cli::StdoutClosed>() => ExitCode::SUCCESS,
         Err(e) => {
-            to_stderr!("error: {e:#}");
+            to_stderr!("error: {}", raytracer::one_line(&format!("{e:#}")));
             ExitCode::from(2)
         }
     }

@@ -213,8 +213,13 @@ pub fn parse_header(bytes: &[u8]) -> std::result::Result<Header, String> {
             format!("the header line is longer than {MAX_HEADER} bytes")
         });
     };
-    let header: PartHeader =
-        serde_json::from_slice(&rest[..end]).map_err(|e| format!("malformed header: {e}"))?;
+    let header: PartHeader = serde_json::from_slice(&rest[..end]).map_err(|e| {
+        // The message may quote the file's text (a field name).
+        format!(
+            "malformed header: {}",
+            crate::error::one_line(&e.to_string())
+        )
+    })?;
 
     let s = &header.settings;
     if !(1..=65_536).contains(&s.width)

@@ -346,6 +346,14 @@ fn toml_unclosed_table_header_is_one_line() {
         .fails_with(&["bad.toml:18:16:", "table header"]);
 }
 
+/// Text a bad file quotes into its message (an unknown key) cannot break the message's
+/// line or send the terminal an escape sequence: control characters are escaped.
+#[test]
+fn quoted_control_characters_are_escaped() {
+    Case::scene(&edit("vfov = 90", "vfov = 90\n\"x\\u001b[31my\" = 1"))
+        .fails_with(&["bad.toml:10:1:", "unknown field `x\\u{1b}[31my`"]);
+}
+
 #[test]
 fn toml_duplicate_key() {
     Case::scene(&edit("radius = 0.5\n", "radius = 0.5\nradius = 0.6\n"))

@@ -641,6 +641,14 @@ fn malformed_parts_are_refused() {
     merge_fails(d, &with("flip.part"), &["flip.part: corrupt"]);
     edited(d, 1, "json.part", |b| b[range.start + 1] = b'[');
     merge_fails(d, &with("json.part"), &["json.part: malformed header"]);
+    // A field name with a newline and an escape sequence: quoted escaped, on one line
+    // (found by the `part` fuzz target).
+    with_header(d, 1, "quote.part", "\"scene\":", "\"sc\\ne\\u001b[31m\":");
+    merge_fails(
+        d,
+        &with("quote.part"),
+        &["quote.part: malformed header: unknown field `sc\\ne\\u{1b}[31m`"],
+    );
     with_header(
         d,
         1,
@@ -879,4 +887,29 @@ fn sample_part_parses() {
     assert_eq!(p.header.settings.width, 24);
     assert_eq!(p.header.program, part::PROGRAM);
     assert_eq!(p.pixels().count() as u64, p.header.pixels);
+}
+
+/// The fuzzing seeds (`fuzz/seeds/part`): the `.part` files are good part files of this
+/// program, so the campaign starts from inputs that reach the pixel checks and the
+/// merge; the `found-*` files, inputs that found a bug, are refused with one line.
+#[test]
+fn the_fuzzing_seeds_are_good_part_files_or_refused_in_one_line() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds/part");
+    let (mut good, mut found) = (0, 0);
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let bytes = read(&path);
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        if name.starts_with("found-") {
+            let e = part::parse_part(&bytes).expect_err(&name);
+            assert!(!e.contains('\n') && !e.contains('\u{1b}'), "{name}: {e}");
+            found += 1;
+        } else {
+            let p = part::parse_part(&bytes)
+                .unwrap_or_else(|e| panic!("{}: {e}; make the seeds again", path.display()));
+            assert_eq!(p.header.program, part::PROGRAM, "{}", path.display());
+            good += 1;
+        }
+    }
+    assert_eq!((good, found), (3, 1));
 }
