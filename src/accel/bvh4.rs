@@ -15,7 +15,7 @@ use crate::geometry::spawn::gamma;
 use crate::geometry::sphere::{sphere_distance, sphere_intersect_with, SpherePool, SphereRay};
 use crate::geometry::triangle::{Columns, WatertightRay};
 use crate::geometry::{beats, Aabb, Hit, PrimKind, Ray};
-use crate::lanes::{set_lanes, Lane, V3};
+use crate::lanes::{set_lanes, Lane, Mask, V3};
 use crate::scene::{Light, LightShape, Scene};
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
@@ -23,6 +23,7 @@ use rayon::prelude::*;
 use std::mem::MaybeUninit;
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use wide::f32x8;
 
 mod node8;
 pub use node8::BoxRay8;
@@ -255,10 +256,12 @@ pub struct Bvh4 {
     pub linear: [Range<usize>; 3],
     pub depth: u32,
     pub leaves: u32,
-    /// The spheres beside the tree (`linear[0]`), four a `Vec4` (the last group
+    /// The spheres beside the tree (`linear[0]`), eight an `f32x8` (the last group
     /// padded with radius-0 spheres, masked off): one load per component instead of four
     /// gathered through `load4`'s short-tail path on every ray (the bunny scene's three
-    /// spheres cost ~130 instructions a ray that way, callgrind).
+    /// spheres cost ~130 instructions a ray that way, callgrind), and the five of
+    /// `spheres` and `mixed` in one test, not two `Vec4` ones (the same lane-wise
+    /// operations, so the same bits).
     linear_spheres: Vec<SphereLanes>,
     /// The quads beside the tree (`linear[1]`), eight a group: one ray tests a group
     /// with one 8-lane edge test (the `quads` scene's six quads in one pass; one at a
@@ -278,12 +281,15 @@ pub struct Bvh4 {
 /// while in `cornell` the tree holds the room and every ray is inside it (+1.0%).
 pub const TREE_BOX_FIRST: f32 = 0.5;
 
-/// Four spheres, structure-of-arrays in `Vec4` lanes.
+/// Eight spheres, structure-of-arrays in `f32x8` lanes.
 #[derive(Clone, Copy, Debug)]
 struct SphereLanes {
-    center: V3<Vec4>,
-    radius: Vec4,
+    center: V3<f32x8>,
+    radius: f32x8,
 }
+
+/// Spheres a `SphereLanes` holds.
+const SPHERE_GROUP: usize = 8;
 
 /// The rows of `Node4` (as `[[f32; 4]; 8]`: min x, y, z, max x, y, z) holding each
 /// axis' near and far planes, for a direction whose axis a is negative when
@@ -763,7 +769,7 @@ impl Bvh4 {
         c.hit(scene)
     }
 
-    /// The kinds beside the tree: the spheres pre-packed four a `Vec4` (the bunny scene's
+    /// The kinds beside the tree: the spheres pre-packed eight an `f32x8` (the bunny scene's
     /// three in one pass), quads and triangles out of line.
     #[inline(always)]
     fn linear_kinds(
@@ -780,7 +786,7 @@ impl Bvh4 {
             stats.prims += n as u64;
             // `SpherePool::intersect4` on the pre-packed lanes (`pack_spheres` packs
             // exactly `linear[0]`).
-            debug_assert_eq!(self.linear_spheres.len(), n.div_ceil(4));
+            debug_assert_eq!(self.linear_spheres.len(), n.div_ceil(SPHERE_GROUP));
             let s = &scene.spheres;
             let r = &consts.sphere;
             for (g, lanes) in self.linear_spheres.iter().enumerate() {
@@ -789,13 +795,15 @@ impl Bvh4 {
                     lanes.radius,
                     V3::splat(r.origin),
                     V3::splat(r.dir),
-                    Vec4::splat(r.a),
-                    Vec4::splat(r.inv_a),
-                    Vec4::splat(t_min),
-                    Vec4::splat(c.t_max),
+                    f32x8::splat(r.a),
+                    f32x8::splat(r.inv_a),
+                    f32x8::splat(t_min),
+                    f32x8::splat(c.t_max),
                 );
-                let first = 4 * g;
-                let mask = hit.bitmask() & ((1u32 << (n - first).min(4)) - 1);
+                // A larger `t_max` than the scan's for the group's later spheres gives
+                // the same hits: a lane beyond the current `t_max` is not offered.
+                let first = SPHERE_GROUP * g;
+                let mask = hit.bits() & ((1u32 << (n - first).min(SPHERE_GROUP)) - 1);
                 c.offer_lanes(
                     &t.to_array(),
                     mask,
@@ -989,13 +997,13 @@ impl Bvh4 {
                     lanes.radius,
                     V3::splat(r.origin),
                     V3::splat(r.dir),
-                    Vec4::splat(r.a),
-                    Vec4::splat(r.inv_a),
-                    Vec4::splat(t_min),
-                    Vec4::splat(t_light),
+                    f32x8::splat(r.a),
+                    f32x8::splat(r.inv_a),
+                    f32x8::splat(t_min),
+                    f32x8::splat(t_light),
                 );
-                let first = spheres.start + 4 * g;
-                let mask = hit.bitmask() & ((1u32 << (spheres.end - first).min(4)) - 1);
+                let first = spheres.start + SPHERE_GROUP * g;
+                let mask = hit.bits() & ((1u32 << (spheres.end - first).min(SPHERE_GROUP)) - 1);
                 let t = t.to_array();
                 if set_lanes(mask).any(|k| occludes(t[k], s.id[first + k], s.object[first + k])) {
                     return true;
@@ -1401,12 +1409,12 @@ fn sort4(mut k: [u32; 4]) -> [u32; 4] {
     k
 }
 
-/// The spheres `range` four a `Vec4`, the last group padded with radius-0 spheres (which
+/// The spheres `range` eight an `f32x8`, the last group padded with radius-0 spheres (which
 /// `linear_kinds` masks off).
 fn pack_spheres(sp: &SpherePool, range: Range<usize>) -> Vec<SphereLanes> {
     range
         .clone()
-        .step_by(4)
+        .step_by(SPHERE_GROUP)
         .map(|start| {
             let lane = |v: &[f32], k: usize| {
                 let i = start + k;
@@ -1416,10 +1424,10 @@ fn pack_spheres(sp: &SpherePool, range: Range<usize>) -> Vec<SphereLanes> {
                     0.0
                 }
             };
-            let v4 = |v: &[f32]| Vec4::from_array([0, 1, 2, 3].map(|k| lane(v, k)));
+            let v8 = |v: &[f32]| f32x8::new(std::array::from_fn(|k| lane(v, k)));
             SphereLanes {
-                center: V3::new(v4(&sp.cx), v4(&sp.cy), v4(&sp.cz)),
-                radius: v4(&sp.radius),
+                center: V3::new(v8(&sp.cx), v8(&sp.cy), v8(&sp.cz)),
+                radius: v8(&sp.radius),
             }
         })
         .collect()
