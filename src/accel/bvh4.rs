@@ -286,6 +286,8 @@ pub const TREE_BOX_FIRST: f32 = 0.5;
 struct SphereLanes {
     center: V3<f32x8>,
     radius: f32x8,
+    /// The lanes holding a sphere (the last group's padding is off).
+    valid: u32,
 }
 
 /// Spheres a `SphereLanes` holds.
@@ -805,7 +807,7 @@ impl Bvh4 {
                 // A larger `t_max` than the scan's for the group's later spheres gives
                 // the same hits: a lane beyond the current `t_max` is not offered.
                 let first = SPHERE_GROUP * g;
-                let mask = hit.bits() & ((1u32 << (n - first).min(SPHERE_GROUP)) - 1);
+                let mask = hit.bits() & lanes.valid;
                 c.offer_lanes(
                     &t.to_array(),
                     mask,
@@ -1005,7 +1007,7 @@ impl Bvh4 {
                     f32x8::splat(t_light),
                 );
                 let first = spheres.start + SPHERE_GROUP * g;
-                let mask = hit.bits() & ((1u32 << (spheres.end - first).min(SPHERE_GROUP)) - 1);
+                let mask = hit.bits() & lanes.valid;
                 let t = t.to_array();
                 if set_lanes(mask).any(|k| occludes(t[k], s.id[first + k], s.object[first + k])) {
                     return true;
@@ -1430,6 +1432,7 @@ fn pack_spheres(sp: &SpherePool, range: Range<usize>) -> Vec<SphereLanes> {
             SphereLanes {
                 center: V3::new(v8(&sp.cx), v8(&sp.cy), v8(&sp.cz)),
                 radius: v8(&sp.radius),
+                valid: (1u32 << (range.end - start).min(SPHERE_GROUP)) - 1,
             }
         })
         .collect()
