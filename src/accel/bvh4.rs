@@ -267,6 +267,9 @@ pub struct Bvh4 {
     /// with one 8-lane edge test (the `quads` scene's six quads in one pass; one at a
     /// time they were 37% of its scalar render, callgrind).
     linear_quads: Vec<QuadLanes>,
+    /// Quads or triangles lie beside the tree (`linear[1]` or `linear[2]` not empty):
+    /// one flag a ray reads instead of two ranges.
+    quads_or_triangles_beside: bool,
     /// The box of the tree's primitives (`Aabb::EMPTY` without a tree): what the
     /// camera's cones test before the tree (`cull::CullTargets`).
     pub tree_box: Aabb,
@@ -675,6 +678,7 @@ impl Bvh4 {
             leaves: 0,
             linear_spheres: Vec::new(),
             linear_quads: Vec::new(),
+            quads_or_triangles_beside: false,
             tree_box: tree
                 .as_ref()
                 .map_or(Aabb::EMPTY, |t| t.node(BuildTree::ROOT).bounds),
@@ -719,6 +723,7 @@ impl Bvh4 {
         );
         bvh.linear_spheres = pack_spheres(&scene.spheres, bvh.linear[0].clone());
         bvh.linear_quads = QuadLanes::pack(&scene.quads, bvh.linear[1].clone());
+        bvh.quads_or_triangles_beside = !bvh.linear[1].is_empty() || !bvh.linear[2].is_empty();
         bvh
     }
 
@@ -817,7 +822,7 @@ impl Bvh4 {
                 );
             }
         }
-        if !self.linear[1].is_empty() || !self.linear[2].is_empty() {
+        if self.quads_or_triangles_beside {
             self.linear_quads_triangles(scene, consts, t_min, c, stats);
         }
     }
