@@ -48,6 +48,28 @@ fn render_bits(scene: &Scene, accel: &Accel, width: u32, threads: usize) -> Vec<
     render_counts(scene, accel, width, threads, true).0
 }
 
+/// `scene` rendered with `sampler` (seed 3) gives the scalar image's bits at widths 4
+/// and 8.
+fn same_bits_at_every_width(scene: &Scene, accel: &Accel, sampler: SamplerKind, name: &str) {
+    let film = |packet_width| {
+        let settings = RenderSettings {
+            packet_width,
+            sampler,
+            ..RenderSettings::new(3)
+        };
+        bits(&render(scene, accel, &settings, &|| {}).unwrap().film)
+    };
+    let reference = film(PacketWidth::Scalar);
+    assert!(
+        film(PacketWidth::Four) == reference,
+        "{name}, {sampler:?}: 4-wide"
+    );
+    assert!(
+        film(PacketWidth::Eight) == reference,
+        "{name}, {sampler:?}: 8-wide"
+    );
+}
+
 /// The structured samplers, whose numbers the packet tracer draws lane by lane, give the
 /// same bits at every width too.
 #[test]
@@ -56,23 +78,7 @@ fn every_sampler_same_bits_at_every_width() {
         for name in ["cornell-area-light", "mixed", "bunny"] {
             let mut scene = builtin(name, 21, 3);
             let accel = Accel::build(&mut scene, AccelKind::Bvh);
-            let film = |packet_width| {
-                let settings = RenderSettings {
-                    packet_width,
-                    sampler,
-                    ..RenderSettings::new(3)
-                };
-                bits(&render(&scene, &accel, &settings, &|| {}).unwrap().film)
-            };
-            let reference = film(PacketWidth::Scalar);
-            assert!(
-                film(PacketWidth::Four) == reference,
-                "{name}, {sampler:?}: 4-wide"
-            );
-            assert!(
-                film(PacketWidth::Eight) == reference,
-                "{name}, {sampler:?}: 8-wide"
-            );
+            same_bits_at_every_width(&scene, &accel, sampler, name);
         }
     }
 }
@@ -184,23 +190,7 @@ fn every_scene_through_a_lens_same_bits_at_every_width_and_thread_count() {
             );
         }
         for sampler in [SamplerKind::Stratified, SamplerKind::Sobol] {
-            let film = |packet_width| {
-                let settings = RenderSettings {
-                    packet_width,
-                    sampler,
-                    ..RenderSettings::new(3)
-                };
-                bits(&render(&scene, &accel, &settings, &|| {}).unwrap().film)
-            };
-            let reference = film(PacketWidth::Scalar);
-            assert!(
-                film(PacketWidth::Four) == reference,
-                "{name}, {sampler:?}: 4-wide"
-            );
-            assert!(
-                film(PacketWidth::Eight) == reference,
-                "{name}, {sampler:?}: 8-wide"
-            );
+            same_bits_at_every_width(&scene, &accel, sampler, name);
         }
     }
 }

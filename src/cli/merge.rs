@@ -2,21 +2,15 @@
 //! frame and one summary line.
 
 use super::options::MergeOptions;
-use raytracer::budget::{Budget, Limit};
-use raytracer::Error;
+use raytracer::budget::Budget;
 use std::time::Instant;
 
 /// Merge `o.parts` into `o.output`; nothing is written if any part is refused.
 pub fn run(o: &MergeOptions) -> anyhow::Result<()> {
     let start = Instant::now();
     let budget = o.max_memory.map_or_else(Budget::machine, Budget::cap);
-    let merged = raytracer::merge_parts_within(&o.parts, budget).map_err(|e| match e {
-        Error::OutOfMemory {
-            limited_by: Limit::Cap,
-            ..
-        } => anyhow::Error::new(e).context("--max-memory"),
-        e => e.into(),
-    })?;
+    let merged =
+        raytracer::merge_parts_within(&o.parts, budget).map_err(super::name_the_memory_cap)?;
     merged.film.write(&o.output)?;
     if o.notes {
         to_stderr!(

@@ -120,3 +120,15 @@ pub fn create_parent(path: &Path) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+/// A library error for the command line: a refusal by the `--max-memory` cap names the
+/// flag.
+pub fn name_the_memory_cap(e: raytracer::Error) -> anyhow::Error {
+    match e {
+        raytracer::Error::OutOfMemory {
+            limited_by: raytracer::budget::Limit::Cap,
+            ..
+        } => anyhow::Error::new(e).context("--max-memory"),
+        e => e.into(),
+    }
+}

@@ -5,9 +5,8 @@
 use super::options::RenderOptions;
 use super::{report, stats};
 use anyhow::Context;
-use raytracer::budget::Limit;
 use raytracer::output::OutputSet;
-use raytracer::{Error, PacketWidth, Part, RayCounts, Region, Rendered, Renderer};
+use raytracer::{PacketWidth, Part, RayCounts, Region, Rendered, Renderer};
 use std::io::IsTerminal;
 use std::time::{Duration, Instant};
 
@@ -48,13 +47,7 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
         to_stderr!("note: built without AVX2: 8-wide packets run as two 4-wide halves");
     }
     let file = super::scene_file(&o.scene)?;
-    let renderer = Renderer::new(&file, &o.scene_options).map_err(|e| match e {
-        Error::OutOfMemory {
-            limited_by: Limit::Cap,
-            ..
-        } => anyhow::Error::new(e).context("--max-memory"),
-        e => e.into(),
-    })?;
+    let renderer = Renderer::new(&file, &o.scene_options).map_err(super::name_the_memory_cap)?;
     let built = Instant::now();
     // The region's tiles; a crop outside the image is refused here, before the render.
     let tiles = match o.region {
