@@ -532,3 +532,175 @@ fn a_tiles_cone_keeps_every_primitive_its_camera_rays_hit() {
         "{checked} {ruled_out} {nothing}"
     );
 }
+
+/// A small scene with every kind of primitive and light for the shadow candidates
+/// (`accel::shadow`): spheres, boxes, tilted quads and triangles around a tilted quad
+/// light, a triangle light and a point light; 58 primitives.
+fn candidates_scene() -> (Scene, Accel) {
+    let mut text = String::from(
+        r#"
+[camera]
+width = 8
+aspect_ratio = "1:1"
+look_from = [0, 1, 4]
+look_at = [0, 0, 0]
+[materials.m]
+type = "phong"
+albedo = [0.5, 0.5, 0.5]
+shininess = 10
+[materials.lamp]
+type = "light"
+color = [1, 1, 1]
+intensity = 1
+[[objects]]
+type = "quad"
+corner = [-0.5, 1.5, -0.3]
+u = [0.9, 0.1, 0]
+v = [0, 0.2, 0.7]
+material = "lamp"
+[[objects]]
+type = "triangle"
+a = [1.2, 0.4, -0.8]
+b = [1.5, 0.9, -0.6]
+c = [1.1, 0.8, -0.2]
+material = "lamp"
+[[objects]]
+type = "sphere"
+center = [-1.2, 1.0, 0.6]
+radius = 0.05
+material = "lamp"
+[[objects]]
+type = "quad"
+corner = [-2, -0.5, -2]
+u = [4, 0, 0]
+v = [0, 0, 4]
+material = "m"
+"#,
+    );
+    let mut rng = Rng(7);
+    let point = |rng: &mut Rng| {
+        Vec3::new(
+            rng.range(-1.2, 1.2),
+            rng.range(-0.5, 1.2),
+            rng.range(-1.2, 1.2),
+        )
+    };
+    for _ in 0..12 {
+        let c = point(&mut rng);
+        let r = rng.range(0.05, 0.3);
+        text += &format!(
+            "[[objects]]\ntype = \"sphere\"\ncenter = [{}, {}, {}]\nradius = {r}\nmaterial = \"m\"\n",
+            c.x, c.y, c.z
+        );
+    }
+    for _ in 0..4 {
+        let lo = point(&mut rng);
+        let hi = lo
+            + Vec3::new(
+                rng.range(0.1, 0.5),
+                rng.range(0.1, 0.5),
+                rng.range(0.1, 0.5),
+            );
+        text += &format!(
+            "[[objects]]\ntype = \"box\"\ncorners = [[{}, {}, {}], [{}, {}, {}]]\nmaterial = \"m\"\n",
+            lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+        );
+    }
+    for _ in 0..8 {
+        let (a, u, v) = (
+            point(&mut rng),
+            rng.unit_vector() * 0.4,
+            rng.unit_vector() * 0.3,
+        );
+        text += &format!(
+            "[[objects]]\ntype = \"quad\"\ncorner = [{}, {}, {}]\nu = [{}, {}, {}]\nv = [{}, {}, {}]\nmaterial = \"m\"\n",
+            a.x, a.y, a.z, u.x, u.y, u.z, v.x, v.y, v.z
+        );
+        let (b, c) = (a + rng.unit_vector() * 0.3, a + rng.unit_vector() * 0.3);
+        text += &format!(
+            "[[objects]]\ntype = \"triangle\"\na = [{}, {}, {}]\nb = [{}, {}, {}]\nc = [{}, {}, {}]\nmaterial = \"m\"\n",
+            a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z
+        );
+    }
+    let mut scene = scene_with_files(&text, &[]);
+    let accel = Accel::build(&mut scene, AccelKind::Bvh);
+    (scene, accel)
+}
+
+/// The shadow candidates keep every occluder: packets of shadow rays from points on the
+/// surfaces (hit points, no offset, as near to the primitives as origins come) and from
+/// points in the air, to samples of each light, see their light in exactly the lanes the
+/// tree's traversal says, with only the candidates tested. And the candidates leave
+/// primitives out (else the test would prove nothing).
+#[test]
+fn shadow_candidates_keep_every_occluder() {
+    use raytracer::accel::shadow::{origins_box, ShadowBoxes};
+    use raytracer::lanes::V3;
+    for (name, (scene, accel)) in [
+        ("candidates", candidates_scene()),
+        ("cornell", {
+            let mut s = builtin("cornell", 37, 1);
+            let a = Accel::build(&mut s, AccelKind::Bvh);
+            (s, a)
+        }),
+    ] {
+        let n = scene.primitive_count();
+        let boxes = ShadowBoxes::new(&scene).expect("a small scene");
+        let mut s = TraversalStats::default();
+        let mut rng = Rng(n as u64);
+        let (mut lanes_tested, mut occluded, mut visible, mut left_out) = (0, 0, 0, 0);
+        let centre = scene.bounds.centroid();
+        let ext = scene.bounds.max - scene.bounds.min;
+        for round in 0..20_000 {
+            // Eight origins near one another: hit points of a bundle of rays, or points
+            // in the air.
+            let base = centre + (Vec3::new(rng.f32(), rng.f32(), rng.f32()) - 0.5) * ext * 0.9;
+            let aim = rng.unit_vector();
+            let origins: [Vec3; MAX_WIDTH] = std::array::from_fn(|_| {
+                let d = (aim + rng.unit_vector() * 0.05).normalize();
+                let r = Ray::new(base, d);
+                match accel.closest_hit(&scene, &r, T_MIN, f32::INFINITY, &mut s) {
+                    Some(h) if round % 4 != 0 => r.at(h.t),
+                    _ => base + d * rng.range(0.0, 0.2),
+                }
+            });
+            let active = (rng.next_u64() as u32 & 0xff) | 1;
+            let o = V3::<f32x8>::from_fn(|k| origins[k]);
+            let region = origins_box(o, V3::splat(Vec3::ZERO), active);
+            for (li, light) in scene.lights.iter().enumerate() {
+                let Some(among) = boxes.candidates(li, &region) else {
+                    continue;
+                };
+                let own = (scene.spheres.object.iter())
+                    .chain(&scene.quads.object)
+                    .chain(&scene.triangles.object)
+                    .filter(|&&o| o == light.object)
+                    .count();
+                left_out += n - own - among.len();
+                let mut u = || f32x8::from_fn(|_| rng.f32());
+                let (a, b, c) = (u(), u(), u());
+                let targets = light.sample_lanes(a, b, c);
+                let dir =
+                    V3::<f32x8>::from_fn(|k| (targets.lane(k) - origins[k]).normalize_or(Vec3::Y));
+                let p = RayPacket::<f32x8>::from_active_lanes(o, dir, active);
+                let want = accel.light_visible_packet(&scene, &p, T_MIN, light, active, &mut s);
+                let got = accel
+                    .light_visible_packet_among(&scene, &p, T_MIN, light, active, among, &mut s);
+                assert_eq!(got, want, "{name}, round {round}, light {li}");
+                lanes_tested += active.count_ones();
+                visible += want.count_ones();
+                occluded += (active & !want).count_ones();
+            }
+        }
+        assert!(lanes_tested > 50_000, "{name}: {lanes_tested}");
+        assert!(
+            visible > 10_000 && occluded > 10_000,
+            "{name}: {visible} visible, {occluded} not"
+        );
+        // Most primitives are ruled out, on average, besides the light's own.
+        assert!(
+            left_out > lanes_tested as usize / 8 * n / 2,
+            "{name}: the candidates left only {left_out} out"
+        );
+    }
+}

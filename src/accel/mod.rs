@@ -13,6 +13,7 @@ pub mod bvh4;
 pub mod cull;
 pub mod linear;
 pub mod packet;
+pub mod shadow;
 
 use crate::geometry::{Hit, Ray};
 use crate::lanes::{set_lanes, Lane};
@@ -20,6 +21,7 @@ use crate::scene::{Light, Scene};
 use bvh4::Bvh4;
 use linear::LinearScan;
 use packet::{PacketHits, RayPacket};
+use shadow::Candidates;
 
 /// Rays that reach a traversal are finite: a NaN or infinite origin or direction makes
 /// the slab test read every plane as "no constraint", so every slot of a node is
@@ -227,7 +229,32 @@ impl Accel {
                 }
                 visible
             }
-            Accel::Bvh(b) => b.light_visible_packet(scene, p, t_min, light, lanes, stats),
+            Accel::Bvh(b) => b.light_visible_packet(scene, p, t_min, light, lanes, None, stats),
+        }
+    }
+
+    /// `light_visible_packet` where only the primitives of `among` can occlude
+    /// (`shadow::ShadowBoxes::candidates` of the lanes' origins; the BVH only, whose
+    /// scene the `ShadowBoxes` were made for).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn light_visible_packet_among<L: Lane>(
+        &self,
+        scene: &Scene,
+        p: &RayPacket<L>,
+        t_min: f32,
+        light: &Light,
+        lanes: u32,
+        among: Candidates,
+        stats: &mut TraversalStats,
+    ) -> u32 {
+        match self {
+            Accel::Linear(_) => self.light_visible_packet(scene, p, t_min, light, lanes, stats),
+            Accel::Bvh(b) => {
+                let lanes = lanes & p.active;
+                set_lanes(lanes).for_each(|k| debug_assert_finite(&p.ray(k)));
+                b.light_visible_packet(scene, p, t_min, light, lanes, Some(among), stats)
+            }
         }
     }
 }

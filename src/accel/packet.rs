@@ -14,6 +14,7 @@ use super::bvh4::{
     NEAR_SCALE,
 };
 use super::cull::Cull;
+use super::shadow::Candidates;
 use super::TraversalStats;
 use crate::geometry::quad::Quad;
 use crate::geometry::quad::{inside_quad, outer_edge_is_zero, plane_distance, quad_edge_functions};
@@ -738,6 +739,32 @@ fn occluders_of<L: Lane>(
     found
 }
 
+/// The lanes of `lanes` whose shadow ray a primitive of `among` occludes
+/// (`Bvh4::occluded_lanes` over the shadow candidates only, without the tree).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn occluded_among<L: Lane>(
+    scene: &Scene,
+    p: &RayPacket<L>,
+    t_min: f32,
+    light: ShadowTarget<L>,
+    lanes: u32,
+    among: Candidates,
+    tris: &mut LazyTriangles<'_, L>,
+    stats: &mut TraversalStats,
+) -> u32 {
+    let mut remaining = lanes & p.active;
+    let t_max = in_play(remaining, light.t);
+    for (kind, range) in among.runs() {
+        stats.prims += (range.len() * remaining.count_ones() as usize) as u64;
+        remaining &= !occluders(scene, p, light, kind, range, t_min, remaining, t_max, tris);
+        if remaining == 0 {
+            break;
+        }
+    }
+    lanes & p.active & !remaining
+}
+
 /// The kind of a light's primitives.
 #[inline(always)]
 fn light_kind(shape: &LightShape) -> PrimKind {
@@ -1334,7 +1361,10 @@ impl Bvh4 {
 
     /// `Accel::light_visible` for the active lanes of `p` in `lanes`: the mask of those
     /// that see `light`. The light's own hits and the occluders share the packet's
-    /// watertight lanes (made once, at the first quad or triangle edge test).
+    /// watertight lanes (made once, at the first quad or triangle edge test). With
+    /// `among` (`shadow::Candidates` of the lanes' origins), only those primitives are
+    /// tested as occluders, without the tree.
+    #[allow(clippy::too_many_arguments)]
     pub fn light_visible_packet<L: Lane>(
         &self,
         scene: &Scene,
@@ -1342,6 +1372,7 @@ impl Bvh4 {
         t_min: f32,
         light: &Light,
         lanes: u32,
+        among: Option<Candidates>,
         stats: &mut TraversalStats,
     ) -> u32 {
         let lanes = lanes & p.active;
@@ -1380,7 +1411,11 @@ impl Bvh4 {
             object: light.object,
             kind: Some(light_kind(&light.shape)),
         };
-        reach & !self.occluded_lanes(scene, p, t_min, own, reach, &mut tris, stats)
+        let occluded = match among {
+            Some(c) => occluded_among(scene, p, t_min, own, reach, c, &mut tris, stats),
+            None => self.occluded_lanes(scene, p, t_min, own, reach, &mut tris, stats),
+        };
+        reach & !occluded
     }
 
     /// `occluded_packet` with the light as lanes.

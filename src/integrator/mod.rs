@@ -15,6 +15,7 @@ pub use shade::footprint;
 
 use crate::accel::cull::{Cone, Cull, CullTargets};
 use crate::accel::packet::{PacketHits, MAX_WIDTH};
+use crate::accel::shadow::ShadowBoxes;
 use crate::accel::{Accel, TraversalStats};
 use crate::geometry::spawn::{
     planar_point_lanes, spawn_ray, sphere_point, sphere_point_lanes, ErrorPoint,
@@ -171,6 +172,10 @@ pub struct Tracer<'a> {
     pub(crate) tables: shade::ShadeTables,
     /// The bounding balls `camera_cull` tests (`None` for the linear scan).
     cull_targets: Option<CullTargets>,
+    /// The primitives' boxes that rule out occluders for a shaded packet's shadow rays
+    /// to an area light (`accel::shadow`; `None` for the linear scan, for scenes without
+    /// an area light and for scenes of more than `shadow::MAX_PRIMITIVES`).
+    pub(crate) shadow_boxes: Option<ShadowBoxes>,
     /// The camera (with a lens, every point of its lens disk) sits strictly inside the
     /// scene's bounds: every camera ray meets them, so camera packets skip that test
     /// (`bunny`'s ground sphere holds the camera).
@@ -192,6 +197,12 @@ impl<'a> Tracer<'a> {
             specialize: true,
             tables: shade::ShadeTables::new(scene),
             cull_targets: CullTargets::new(scene, accel),
+            shadow_boxes: match accel {
+                Accel::Bvh(_) if scene.lights.iter().any(|l| !l.is_point()) => {
+                    ShadowBoxes::new(scene)
+                }
+                _ => None,
+            },
             camera_inside: {
                 // Every lens point: the ball of `lens_reach` around the lens's centre.
                 let (o, b) = (scene.camera.origin.as_dvec3(), &scene.bounds);

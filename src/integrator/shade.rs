@@ -23,6 +23,7 @@ use super::{
 };
 use crate::accel::cull::Cull;
 use crate::accel::packet::{PacketHits, RayPacket, MAX_WIDTH};
+use crate::accel::shadow::{origins_box, Candidates};
 use crate::geometry::spawn::spawn_origin;
 use crate::geometry::Ray;
 use crate::lanes::math::pow;
@@ -504,10 +505,19 @@ impl Tracer<'_> {
         let scene = self.scene;
         let zero = V3::splat(Vec3::ZERO);
         let (mut diffuse, mut specular) = (zero, zero);
+        // Where the lanes' shadow rays start, for the candidate occluders of an area
+        // light's samples in packets (one point light's sample, or one ray, gains
+        // nothing: the tests it saves cost as much as the boxes).
+        let boxes = (self.shadow_boxes.as_ref()).filter(|_| self.specialize && L::WIDTH > 1);
+        let origins = boxes.map(|_| origins_box(s.point, s.error, lanes));
         for (li, light) in scene.lights.iter().enumerate() {
             let n = light.samples();
             let radiance = V3::<L>::splat(light.radiance);
             let (mut light_diffuse, mut light_specular) = (zero, zero);
+            let among = match (boxes, &origins) {
+                (Some(b), Some(o)) if n > 1 => b.candidates(li, o),
+                _ => None,
+            };
             for k in 0..n {
                 let target = light_targets(light, li as u32, k, keys, vertex);
                 let (l, ok) = direction_to(target, s.point);
@@ -540,7 +550,7 @@ impl Tracer<'_> {
                 if traced == 0 {
                     continue;
                 }
-                let visible = self.light_visible_lanes(s, l, traced, light, counts);
+                let visible = self.light_visible_lanes(s, l, traced, light, among, counts);
                 if visible == 0 {
                     continue;
                 }
@@ -571,7 +581,8 @@ impl Tracer<'_> {
     }
 
     /// The lanes of `lanes` whose shadow ray from their surface along `l` reaches
-    /// `light`: the scalar test for one lane, a shadow packet for more.
+    /// `light`: the scalar test for one lane, a shadow packet for more. `among`: the
+    /// only primitives that can occlude a packet's rays, when known (`accel::shadow`).
     #[inline(always)]
     fn light_visible_lanes<L: Lane>(
         &self,
@@ -579,21 +590,26 @@ impl Tracer<'_> {
         l: V3<L>,
         lanes: u32,
         light: &Light,
+        among: Option<Candidates>,
         counts: &mut RayCounts,
     ) -> u32 {
         counts.shadow += lanes.count_ones() as u64;
         let origin = spawn_origin(s.point, s.error, s.normal, l);
+        let (scene, stats) = (self.scene, &mut counts.traversal);
         if L::WIDTH == 1 {
             let ray = Ray::new(origin.lane(0), l.lane(0));
-            let visible =
-                self.accel
-                    .light_visible(self.scene, &ray, T_MIN, light, &mut counts.traversal);
-            return visible as u32;
+            return self.accel.light_visible(scene, &ray, T_MIN, light, stats) as u32;
         }
         counts.shadow_packets.record(lanes);
         let p = RayPacket::<L>::from_active_lanes(origin, l, lanes);
-        self.accel
-            .light_visible_packet(self.scene, &p, T_MIN, light, lanes, &mut counts.traversal)
+        match among {
+            Some(c) => self
+                .accel
+                .light_visible_packet_among(scene, &p, T_MIN, light, lanes, c, stats),
+            None => self
+                .accel
+                .light_visible_packet(scene, &p, T_MIN, light, lanes, stats),
+        }
     }
 }
 
