@@ -245,7 +245,7 @@ impl Accel {
         t_min: f32,
         light: &Light,
         lanes: u32,
-        among: Candidates,
+        among: Candidates<'_>,
         stats: &mut TraversalStats,
     ) -> u32 {
         match self {

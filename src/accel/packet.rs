@@ -740,7 +740,9 @@ fn occluders_of<L: Lane>(
 }
 
 /// The lanes of `lanes` whose shadow ray a primitive of `among` occludes
-/// (`Bvh4::occluded_lanes` over the shadow candidates only, without the tree).
+/// (`Bvh4::occluded_lanes` over the shadow candidates only, without the tree). A quad's
+/// box is tested before its edges, as a leaf's box is in the tree (and as safely: the
+/// slab test's scaled reciprocals keep every lane the quad test accepts).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn occluded_among<L: Lane>(
@@ -749,13 +751,31 @@ fn occluded_among<L: Lane>(
     t_min: f32,
     light: ShadowTarget<L>,
     lanes: u32,
-    among: Candidates,
+    among: Candidates<'_>,
     tris: &mut LazyTriangles<'_, L>,
     stats: &mut TraversalStats,
 ) -> u32 {
     let mut remaining = lanes & p.active;
     let t_max = in_play(remaining, light.t);
+    let t_min_l = L::splat(t_min);
     for (kind, range) in among.runs() {
+        if kind == PrimKind::Quad {
+            for i in range {
+                let (lo, hi) = among.quad_box(i);
+                let inside = p.test_box(lo, hi, t_min_l, t_max).1 & remaining;
+                if inside == 0 {
+                    continue;
+                }
+                stats.prims += inside.count_ones() as u64;
+                let quad = PrimKind::Quad;
+                remaining &=
+                    !occluders(scene, p, light, quad, i..i + 1, t_min, inside, t_max, tris);
+                if remaining == 0 {
+                    return lanes & p.active;
+                }
+            }
+            continue;
+        }
         stats.prims += (range.len() * remaining.count_ones() as usize) as u64;
         remaining &= !occluders(scene, p, light, kind, range, t_min, remaining, t_max, tris);
         if remaining == 0 {
@@ -1372,7 +1392,7 @@ impl Bvh4 {
         t_min: f32,
         light: &Light,
         lanes: u32,
-        among: Option<Candidates>,
+        among: Option<Candidates<'_>>,
         stats: &mut TraversalStats,
     ) -> u32 {
         let lanes = lanes & p.active;

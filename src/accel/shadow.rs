@@ -42,14 +42,18 @@ pub struct ShadowBoxes {
     triangles: u32,
     /// Per light: its box, and its own primitives (never occluders).
     lights: Vec<(Aabb, u64)>,
+    /// The quads' boxes by pool index, as (min, max): a packet tests a candidate quad's
+    /// box before its edges (`Candidates::quad_box`).
+    quad_boxes: Vec<([f32; 3], [f32; 3])>,
 }
 
 /// Primitives a bundle of shadow rays may meet, as runs of one kind: (kind, first and
 /// end index in its pool).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Candidates {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Candidates<'a> {
     runs: [(PrimKind, u8, u8); MAX_RUNS],
     len: u8,
+    quad_boxes: &'a [([f32; 3], [f32; 3])],
 }
 
 /// Candidates in more runs than this take the tree.
@@ -120,6 +124,12 @@ impl ShadowBoxes {
             quads: ns as u32,
             triangles: (ns + nq) as u32,
             lights,
+            quad_boxes: (0..nq)
+                .map(|i| {
+                    let b = scene.quads.bounds(i);
+                    (b.min.to_array(), b.max.to_array())
+                })
+                .collect(),
         })
     }
 
@@ -127,7 +137,7 @@ impl ShadowBoxes {
     /// `origins` and the light's, padded: all that a shadow ray from a point of
     /// `origins` to the light can meet. `None` when they are too scattered to pay
     /// (`MAX_RUNS`).
-    pub fn candidates(&self, light: usize, origins: &Aabb) -> Option<Candidates> {
+    pub fn candidates(&self, light: usize, origins: &Aabb) -> Option<Candidates<'_>> {
         let (light_box, own) = self.lights[light];
         let region = origins.union(light_box);
         let scale = region.min.abs().max(region.max.abs()).max_element();
@@ -144,7 +154,8 @@ impl ShadowBoxes {
             }
             mask |= (meets as u64) << (8 * g);
         }
-        Candidates::of_mask(mask & !own, self.quads as usize, self.triangles as usize)
+        let (quads, triangles) = (self.quads as usize, self.triangles as usize);
+        Candidates::of_mask(mask & !own, quads, triangles, &self.quad_boxes)
     }
 }
 
@@ -164,13 +175,19 @@ pub fn origins_box<L: Lane>(point: V3<L>, error: V3<L>, lanes: u32) -> Aabb {
     )
 }
 
-impl Candidates {
+impl<'a> Candidates<'a> {
     /// The primitives of `mask` (spheres from bit 0, quads from bit `quads`, triangles
     /// from bit `triangles`) as runs, `None` past `MAX_RUNS`.
-    fn of_mask(mut mask: u64, quads: usize, triangles: usize) -> Option<Self> {
+    fn of_mask(
+        mut mask: u64,
+        quads: usize,
+        triangles: usize,
+        quad_boxes: &'a [([f32; 3], [f32; 3])],
+    ) -> Option<Self> {
         let mut c = Candidates {
             runs: [(PrimKind::Sphere, 0, 0); MAX_RUNS],
             len: 0,
+            quad_boxes,
         };
         while mask != 0 {
             let start = mask.trailing_zeros() as usize;
@@ -199,6 +216,12 @@ impl Candidates {
         self.runs[..self.len as usize]
             .iter()
             .map(|&(kind, a, b)| (kind, a as usize..b as usize))
+    }
+
+    /// Quad `i`'s box (min, max).
+    #[inline(always)]
+    pub fn quad_box(&self, i: usize) -> ([f32; 3], [f32; 3]) {
+        self.quad_boxes[i]
     }
 
     /// How many primitives the candidates hold.
@@ -240,7 +263,7 @@ mod tests {
                 1 => next() | next() | next(),
                 _ => next(),
             };
-            let Some(c) = Candidates::of_mask(mask, quads, triangles) else {
+            let Some(c) = Candidates::of_mask(mask, quads, triangles, &[]) else {
                 overflow += 1;
                 continue;
             };

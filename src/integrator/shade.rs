@@ -590,7 +590,7 @@ impl Tracer<'_> {
         l: V3<L>,
         lanes: u32,
         light: &Light,
-        among: Option<Candidates>,
+        among: Option<Candidates<'_>>,
         counts: &mut RayCounts,
     ) -> u32 {
         counts.shadow += lanes.count_ones() as u64;
