@@ -1,8 +1,8 @@
 //! Intersection kernels of the three primitive kinds and of the slab test, checked against
-//! analytic cases and against an independent f64 oracle written here.
+//! analytic cases and against the independent f64 oracles of `support::oracle`.
 //!
 //! The oracle takes the kernels' exact f32 inputs, widens them to f64 and uses the textbook
-//! formulas (quadratic for spheres, plane + parametric / barycentric coordinates for quads
+//! formulas (the quadratic for spheres, plane + parametric / barycentric coordinates for quads
 //! and triangles, plain slabs for boxes), so its answers are the exact answers for the f32
 //! geometry to far better than the f32 tolerances used here. The random comparisons require
 //! hit/miss agreement and t within a relative 1e-5, except where the problem itself is
@@ -13,19 +13,22 @@
 //!
 //! Everything is deterministic (a splitmix64 generator with fixed seeds).
 
+mod support;
+
 use glam::Vec3;
 use raytracer::geometry::aabb::{Aabb, SlabRay};
 use raytracer::geometry::quad::Quad;
 use raytracer::geometry::sphere::sphere_intersect;
 use raytracer::geometry::triangle::WatertightRay;
 use raytracer::geometry::Ray;
+use support::oracle::{
+    add, cross, d3, grazing_dir, l1, planar_tol, quad_oracle, rel_err, scale, slab_oracle,
+    sphere_roots, sphere_tol, sub, triangle_oracle, unit, D3, EPS, REL_TOL,
+};
 
 // ---------------------------------------------------------------------------------------
-// Shared helpers: PRNG, f64 vector maths, tolerances.
+// Helpers: PRNG, the random comparisons' margins, t windows.
 // ---------------------------------------------------------------------------------------
-
-/// Relative tolerance on t for well-conditioned cases.
-const REL_TOL: f64 = 1e-5;
 
 /// Random comparisons skip rays whose oracle hit point lies within this relative distance of
 /// a primitive's boundary (quad parameter or triangle barycentric within 1e-4 of 0 or 1):
@@ -40,8 +43,6 @@ const EDGE_MARGIN: f64 = 1e-4;
 /// a square root of a near-zero discriminant. Grazing rays down to 1e-6 rad are tested
 /// separately with a bound derived from that conditioning.
 const MIN_GRAZING_SIN: f64 = 1e-3;
-
-const EPS: f64 = f32::EPSILON as f64;
 
 /// splitmix64: small, deterministic, good enough for test inputs.
 struct Rng(u64);
@@ -92,44 +93,6 @@ impl Rng {
     }
 }
 
-type D3 = [f64; 3];
-
-fn d3(v: Vec3) -> D3 {
-    [v.x as f64, v.y as f64, v.z as f64]
-}
-
-fn sub(a: D3, b: D3) -> D3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn add(a: D3, b: D3) -> D3 {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-
-fn scale(a: D3, s: f64) -> D3 {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-
-fn dot(a: D3, b: D3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: D3, b: D3) -> D3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn norm(a: D3) -> f64 {
-    dot(a, a).sqrt()
-}
-
-fn rel_err(t: f32, reference: f64) -> f64 {
-    (t as f64 - reference).abs() / reference.abs()
-}
-
 fn in_window(t: f64, t_min: f32, t_max: f32) -> bool {
     t >= t_min as f64 && t <= t_max as f64
 }
@@ -152,59 +115,16 @@ fn assert_close(t: Option<f32>, expected: f64, tol: f64, what: &str) {
     }
 }
 
-/// The direction making angle `theta` with a plane: `cos θ · along + sin θ · normal`
-/// (`along` a unit vector in the plane, `normal` the unit normal), in f64, then rounded and
-/// renormalised in f32.
-fn grazing_dir(along: D3, normal: D3, theta: f64) -> Vec3 {
-    let d = add(scale(along, theta.cos()), scale(normal, theta.sin()));
-    Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32).normalize()
-}
-
 const GRAZING_ANGLES: [f64; 6] = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6];
-
-fn l1(v: Vec3) -> f64 {
-    d3(v).iter().map(|x| x.abs()).sum()
-}
-
-/// Bound on the relative error of t where a ray from `origin` meets a plane through
-/// `anchor` (a quad corner or triangle vertex) at angle θ, sin θ = `sin`.
-///
-/// The planar kernels round positions before anything else: the quad subtracts n · o from
-/// its f32 plane offset n · Q, the triangle subtracts the origin from each vertex. So their
-/// t is the exact answer for points moved by a few ulps of the coordinates, and moving a
-/// point by δ across the plane moves the hit by δ / sin θ along the ray. The bound takes
-/// δ = 2 · f32::EPSILON · (|o|₁ + |Q|₁ + t). It exceeds `REL_TOL` only for oblique rays
-/// or origins close to the plane compared with their distance from the world origin: in
-/// the random comparisons below, for about one hit in ten (up to ~200 times `REL_TOL` just
-/// above the 1e-3 rad cut-off). Measured errors stay below a fifth of it over a dozen
-/// seeds, and below a fifth of it in the grazing tests down to 1e-6 rad.
-fn planar_tol(origin: Vec3, anchor: Vec3, t: f64, sin: f64) -> f64 {
-    REL_TOL.max(2.0 * EPS * (1.0 + (l1(origin) + l1(anchor)) / t.abs()) / sin)
-}
 
 // ---------------------------------------------------------------------------------------
 // Spheres.
 // ---------------------------------------------------------------------------------------
 
-/// Both roots of |o + t d − c|² = r² (t0 ≤ t1) and the sine of the angle between the ray
-/// and the surface at the hits, from the textbook quadratic in f64.
-fn sphere_roots(center: Vec3, radius: f32, ray: &Ray) -> Option<(f64, f64, f64)> {
-    let (o, d, c, r) = (d3(ray.origin), d3(ray.dir), d3(center), radius as f64);
-    let f = sub(o, c);
-    let a = dot(d, d);
-    let b = dot(f, d);
-    let cc = dot(f, f) - r * r;
-    let disc = b * b - a * cc;
-    if disc < 0.0 {
-        return None;
-    }
-    let s = disc.sqrt();
-    Some(((-b - s) / a, (-b + s) / a, s / (a.sqrt() * r)))
-}
-
 /// The kernel's rule: the near root if it lies in the window, else the far root.
 fn sphere_oracle(center: Vec3, radius: f32, ray: &Ray, t_min: f32, t_max: f32) -> Option<f64> {
-    let (t0, t1, _) = sphere_roots(center, radius, ray)?;
+    let roots = sphere_roots(center, radius, ray)?;
+    let (t0, t1) = (roots.t0, roots.t1);
     if in_window(t0, t_min, t_max) {
         Some(t0)
     } else if in_window(t1, t_min, t_max) {
@@ -212,15 +132,6 @@ fn sphere_oracle(center: Vec3, radius: f32, ray: &Ray, t_min: f32, t_max: f32) -
     } else {
         None
     }
-}
-
-/// Bound on the relative error of a sphere hit at distance `t` (`dist` = |o − c|, sin θ the
-/// angle between the ray and the surface). The kernel's squared distance between the centre
-/// and the ray's line carries an absolute error of a few ulps of |o − c|, which the square
-/// root of the discriminant divides by sin θ near tangency. Above `REL_TOL` only for rays
-/// within a few degrees of tangency.
-fn sphere_tol(dist: f64, t: f64, sin: f64) -> f64 {
-    REL_TOL.max(2.0 * EPS * dist / (t.abs() * sin))
 }
 
 #[test]
@@ -325,7 +236,8 @@ fn sphere_ray_from_inside_returns_far_root() {
         let r = rng.range32(0.5, 3.0);
         let o = c + rng.dir() * (r * rng.range32(0.0, 0.9));
         let ray = Ray::new(o, rng.dir());
-        let (t0, t1, _) = sphere_roots(c, r, &ray).expect("inside: always two roots");
+        let roots = sphere_roots(c, r, &ray).expect("inside: always two roots");
+        let (t0, t1) = (roots.t0, roots.t1);
         assert!(t0 < 0.0 && t1 > 0.0);
         let t = sphere_intersect(c, r, &ray, 0.0, f32::INFINITY);
         assert_close(t, t1, REL_TOL, "inside");
@@ -449,7 +361,7 @@ fn sphere_tangent_and_grazing_rays() {
                 assert_eq!(oracle.is_some(), must_hit);
             }
             if let (Some(t), Some(expected)) = (got, oracle) {
-                let (_, _, sin) = sphere_roots(c, r, &ray).unwrap();
+                let sin = sphere_roots(c, r, &ray).unwrap().sin;
                 let tol = sphere_tol(dist, expected, sin);
                 assert!(
                     rel_err(t, expected) <= tol,
@@ -539,10 +451,10 @@ fn sphere_random_rays_match_oracle() {
             (0.0, f32::INFINITY)
         };
         let roots = sphere_roots(c, r, &ray);
-        if let Some((t0, t1, sin)) = roots {
-            if sin < MIN_GRAZING_SIN
-                || near_window_bound(t0, t_min, t_max)
-                || near_window_bound(t1, t_min, t_max)
+        if let Some(roots) = roots {
+            if roots.sin < MIN_GRAZING_SIN
+                || near_window_bound(roots.t0, t_min, t_max)
+                || near_window_bound(roots.t1, t_min, t_max)
             {
                 skipped += 1;
                 continue;
@@ -556,7 +468,7 @@ fn sphere_random_rays_match_oracle() {
             (Some(t), Some(e)) => {
                 hits += 1;
                 worst = worst.max(rel_err(t, e));
-                let tol = sphere_tol((o - c).length() as f64, e, roots.unwrap().2);
+                let tol = sphere_tol((o - c).length() as f64, e, roots.unwrap().sin);
                 assert_close(got, e, tol, &format!("{ray:?} c={c} r={r}"));
             }
             _ => panic!("c={c} r={r} {ray:?} [{t_min}, {t_max}]: got {got:?}, oracle {expected:?}"),
@@ -572,36 +484,6 @@ fn sphere_random_rays_match_oracle() {
 // ---------------------------------------------------------------------------------------
 // Quads.
 // ---------------------------------------------------------------------------------------
-
-#[derive(Clone, Copy, Debug)]
-struct PlaneHit {
-    t: f64,
-    /// Signed distance to the boundary in parameter space: min(α, 1 − α, β, 1 − β) for a
-    /// quad, the smallest barycentric for a triangle. ≥ 0 means inside.
-    margin: f64,
-    /// Sine of the angle between the ray and the plane.
-    sin: f64,
-}
-
-/// Plane t = n·(Q − o) / n·d with n = u × v, then α, β from the hit point.
-fn quad_oracle(corner: Vec3, u: Vec3, v: Vec3, ray: &Ray) -> Option<PlaneHit> {
-    let (q, u, v, o, d) = (d3(corner), d3(u), d3(v), d3(ray.origin), d3(ray.dir));
-    let n = cross(u, v);
-    let nn = dot(n, n);
-    let denom = dot(n, d);
-    if denom == 0.0 {
-        return None;
-    }
-    let t = dot(n, sub(q, o)) / denom;
-    let hp = sub(add(o, scale(d, t)), q);
-    let alpha = dot(n, cross(hp, v)) / nn;
-    let beta = dot(n, cross(u, hp)) / nn;
-    Some(PlaneHit {
-        t,
-        margin: alpha.min(1.0 - alpha).min(beta).min(1.0 - beta),
-        sin: denom.abs() / (nn.sqrt() * norm(d)),
-    })
-}
 
 #[test]
 fn quad_analytic_hits_and_misses() {
@@ -780,13 +662,13 @@ fn quad_t_window() {
 fn check_quad_grazing(corner: Vec3, u: Vec3, v: Vec3, len: f32, axis_aligned: bool) {
     let q = Quad::new(corner, u, v).unwrap();
     let n = cross(d3(u), d3(v));
-    let n = scale(n, 1.0 / norm(n));
+    let n = unit(n);
     for (along, target) in [
         (d3(u), corner + (u + v) * 0.5),
         (d3(v), corner + u * 0.25 + v * 0.5),
         (d3(u + v), corner + (u + v) * 0.5),
     ] {
-        let along = scale(along, 1.0 / norm(along));
+        let along = unit(along);
         for theta in GRAZING_ANGLES {
             for side in [1.0, -1.0] {
                 let d = grazing_dir(along, scale(n, side), theta);
@@ -901,27 +783,6 @@ fn quad_random_rays_match_oracle() {
 // ---------------------------------------------------------------------------------------
 // Triangles.
 // ---------------------------------------------------------------------------------------
-
-/// Plane t, then barycentrics as signed sub-areas over the full area.
-fn triangle_oracle([a, b, c]: [Vec3; 3], ray: &Ray) -> Option<PlaneHit> {
-    let (a, b, c, o, d) = (d3(a), d3(b), d3(c), d3(ray.origin), d3(ray.dir));
-    let n = cross(sub(b, a), sub(c, a));
-    let nn = dot(n, n);
-    let denom = dot(n, d);
-    if denom == 0.0 {
-        return None;
-    }
-    let t = dot(n, sub(a, o)) / denom;
-    let p = add(o, scale(d, t));
-    let la = dot(n, cross(sub(c, b), sub(p, b))) / nn;
-    let lb = dot(n, cross(sub(a, c), sub(p, c))) / nn;
-    let lc = dot(n, cross(sub(b, a), sub(p, a))) / nn;
-    Some(PlaneHit {
-        t,
-        margin: la.min(lb).min(lc),
-        sin: denom.abs() / (nn.sqrt() * norm(d)),
-    })
-}
 
 fn tri_hit(tri: [Vec3; 3], ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
     WatertightRay::new(ray).intersect(tri, t_min, t_max)
@@ -1135,10 +996,10 @@ fn triangle_grazing_rays() {
     for (tri, axis_aligned) in tris {
         let [a, b, c] = tri.map(d3);
         let n = cross(sub(b, a), sub(c, a));
-        let n = scale(n, 1.0 / norm(n));
+        let n = unit(n);
         let centroid = (tri[0] + tri[1] + tri[2]) / 3.0;
         for along in [sub(b, a), sub(c, a), sub(c, b), cross(n, sub(b, a))] {
-            let along = scale(along, 1.0 / norm(along));
+            let along = unit(along);
             for theta in GRAZING_ANGLES {
                 for side in [1.0, -1.0] {
                     let d = grazing_dir(along, scale(n, side), theta);
@@ -1375,7 +1236,7 @@ impl Mesh {
         let vertices = v
             .iter()
             .map(|&x| {
-                let x = scale(x, 1.0 / norm(x));
+                let x = unit(x);
                 centre + Vec3::new(x[0] as f32, x[1] as f32, x[2] as f32) * radius
             })
             .collect();
@@ -1556,26 +1417,6 @@ fn planar_grid_has_no_cracks() {
 // ---------------------------------------------------------------------------------------
 // Slab test.
 // ---------------------------------------------------------------------------------------
-
-/// Entry and exit distances in f64, a zero direction component leaving its axis
-/// unconstrained when the origin is within the closed slab and missing otherwise. The ray
-/// overlaps the box iff entry ≤ exit.
-fn slab_oracle(b: &Aabb, ray: &Ray, t_min: f32, t_max: f32) -> (f64, f64) {
-    let (lo, hi, o, d) = (d3(b.min), d3(b.max), d3(ray.origin), d3(ray.dir));
-    let (mut enter, mut exit) = (t_min as f64, t_max as f64);
-    for i in 0..3 {
-        if d[i] == 0.0 {
-            if o[i] < lo[i] || o[i] > hi[i] {
-                return (f64::INFINITY, f64::NEG_INFINITY);
-            }
-        } else {
-            let (t1, t2) = ((lo[i] - o[i]) / d[i], (hi[i] - o[i]) / d[i]);
-            enter = enter.max(t1.min(t2));
-            exit = exit.min(t1.max(t2));
-        }
-    }
-    (enter, exit)
-}
 
 fn slab(b: &Aabb, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
     let t = b.hit(&SlabRay::new(ray), t_min, t_max);

@@ -1,7 +1,8 @@
 //! Numerical stress tests: each asserts one checkable fact about the renderer's robustness
 //! (watertight meshes, no self-intersection far from the origin, contact shadows at small
 //! scales, accurate small and distant spheres, grazing and axis-parallel rays, degenerate
-//! triangles, finite pixels). f64 oracles are written here, on the exact f32 inputs.
+//! triangles, finite pixels), against the f64 oracles of `support::oracle` on the exact f32
+//! inputs.
 //!
 //! Each test's doc comment says how it was checked that it can fail: the robustness it
 //! guards was broken on purpose in the library, the test run and seen to fail, and the
@@ -21,34 +22,14 @@ use raytracer::material::Material;
 use raytracer::rng::SampleKey;
 use raytracer::scene::{builtin, LightShape, Scene};
 use std::collections::HashMap;
+use support::oracle::{
+    cross, d3, dot, grazing_dir, l1, planar_tol, rel_err, sphere_roots, triangle_oracle, unit, D3,
+    EPS,
+};
 use support::{
     builtin as builtin_scene, mean_abs_diff, obj_text, render_with, scene_with_files,
     transform_scene, Rng,
 };
-
-const EPS: f64 = f32::EPSILON as f64;
-
-type D3 = [f64; 3];
-
-fn d3(v: Vec3) -> D3 {
-    [v.x as f64, v.y as f64, v.z as f64]
-}
-fn sub(a: D3, b: D3) -> D3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn dot(a: D3, b: D3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: D3, b: D3) -> D3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn l1(v: Vec3) -> f64 {
-    d3(v).iter().map(|x| x.abs()).sum()
-}
 
 /// A scene with one mesh object (Phong) from a triangle soup, and optionally more objects
 /// given as TOML. The compiled pool holds the vertices exactly (shortest round-trip text).
@@ -797,23 +778,6 @@ material = "ball"
 // 3. Tiny and distant spheres.
 // ---------------------------------------------------------------------------------------
 
-/// The near root of |o + t d − c|² = r² in f64 on the exact f32 inputs, and the distance
-/// of the line from the centre relative to r.
-fn sphere_oracle(c: Vec3, r: f32, ray: &Ray) -> Option<(f64, f64)> {
-    let (o, d, c, r) = (d3(ray.origin), d3(ray.dir), d3(c), r as f64);
-    let f = sub(o, c);
-    let a = dot(d, d);
-    let b = dot(f, d);
-    let perp = sub(f, d.map(|x| x * b / a));
-    let p2 = dot(perp, perp);
-    if p2 > r * r {
-        return None;
-    }
-    let h = (a * (r * r - p2)).sqrt();
-    let t0 = (-b - h) / a;
-    Some((if t0 > 0.0 { t0 } else { (-b + h) / a }, p2.sqrt() / r))
-}
-
 /// Spheres of radius 1e-3 at distance 100 and of radius 1, 100 and 1e3 at distance 1e5,
 /// in random directions, hit by 20 000 random rays each from random origins in the unit
 /// cube around the world origin, aimed at random points of the sphere's disc seen from
@@ -846,7 +810,7 @@ fn tiny_and_distant_spheres_match_the_oracle() {
             let target = centre + side * (radius * k);
             let ray = Ray::new(origin, (target - origin).normalize());
             let got = sphere_intersect(centre, radius, &ray, T_MIN, f32::INFINITY);
-            let oracle = sphere_oracle(centre, radius, &ray);
+            let oracle = sphere_roots(centre, radius, &ray).map(|r| (r.first(), r.off));
             match oracle {
                 Some((t, off)) if off < 0.995 => {
                     assert!(!miss);
@@ -884,16 +848,6 @@ const GRAZING: [f64; 7] = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7];
 fn grid(corner: Vec3, u: Vec3, v: Vec3) -> Vec<[Vec3; 3]> {
     let (a, b, c, d) = (corner, corner + u, corner + u + v, corner + v);
     subdivide_times(&[[a, b, c], [a, c, d]], 3)
-}
-
-/// A direction at angle θ to the plane with unit normal `n`: cos θ · along + sin θ · n in
-/// f64, rounded to f32 and renormalised (as every renderer ray).
-fn grazing(along: D3, n: D3, theta: f64) -> Vec3 {
-    let l = dot(along, along).sqrt();
-    let d: Vec<f64> = (0..3)
-        .map(|i| along[i] / l * theta.cos() + n[i] * theta.sin())
-        .collect();
-    Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32).normalize()
 }
 
 /// The axis-aligned grid z = 0.5, [-2, 2]² (dyadic vertices, so the mesh is exactly
@@ -950,7 +904,7 @@ fn grazing_and_axis_parallel_rays_on_a_flat_mesh() {
                 let along = along.map(|x| x * sign);
                 for side in [1.0, -1.0] {
                     for theta in GRAZING {
-                        let d = grazing(along, [0.0, 0.0, side], theta);
+                        let d = grazing_dir(unit(along), [0.0, 0.0, side], theta);
                         // Start 0.9 units before the target (still above the grid).
                         let o = target - d * 0.9;
                         let ray = Ray::new(o, d);
@@ -958,7 +912,7 @@ fn grazing_and_axis_parallel_rays_on_a_flat_mesh() {
                         let hit = closest(&accel, &scene, &ray).unwrap_or_else(|| {
                             panic!("θ = {theta}: lost {ray:?} aimed at {target}")
                         });
-                        let rel = (hit.t as f64 - t_oracle).abs() / t_oracle;
+                        let rel = rel_err(hit.t, t_oracle);
                         assert!(
                             rel <= 1e-5,
                             "θ = {theta}: t = {}, oracle {t_oracle} {ray:?}",
@@ -1009,28 +963,6 @@ fn grazing_and_axis_parallel_rays_on_a_flat_mesh() {
     eprintln!("flat mesh: {checked} rays, worst relative t error {worst:e}");
 }
 
-/// The f64 oracle over a triangle soup: for every triangle, the plane distance t and the
-/// smallest barycentric coordinate of the plane hit (negative outside).
-fn soup_oracle(tris: &[[Vec3; 3]], ray: &Ray) -> Vec<(f64, f64)> {
-    let (o, d) = (d3(ray.origin), d3(ray.dir));
-    tris.iter()
-        .filter_map(|t| {
-            let [a, b, c] = t.map(d3);
-            let n = cross(sub(b, a), sub(c, a));
-            let den = dot(n, d);
-            if den == 0.0 {
-                return None;
-            }
-            let t = dot(n, sub(a, o)) / den;
-            let p = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
-            let nn = dot(n, n);
-            let wa = dot(cross(sub(b, p), sub(c, p)), n) / nn;
-            let wb = dot(cross(sub(c, p), sub(a, p)), n) / nn;
-            Some((t, wa.min(wb).min(1.0 - wa - wb)))
-        })
-        .collect()
-}
-
 /// A tilted grid (non-dyadic corner and edges, vertices rounded to f32 and shared: planar
 /// only to rounding), through the BVH, with grazing rays at 1e-1 … 1e-7 rad from both
 /// sides, along its shared edges' directions and aimed at points of shared edges and at
@@ -1039,8 +971,8 @@ fn soup_oracle(tris: &[[Vec3; 3]], ray: &Ray) -> Vec<(f64, f64)> {
 /// from the surface, is more than 4 ε (|o|₁ + |a|₁) away from it (otherwise which side of
 /// the f32-rounded, only nearly planar mesh the origin is on is not decided; this leaves
 /// out 1e-6 and 1e-7 rad): then the BVH must hit, with t within
-/// 2 ε (1 + (|o|₁ + |a|₁) / t) / sin θ relative of the oracle (the bound of
-/// `tests/primitives.rs`, `planar_tol`; at least 1e-5). A ray that the oracle misses by
+/// 2 ε (1 + (|o|₁ + |a|₁) / t) / sin θ relative of the oracle (`support::oracle::planar_tol`;
+/// at least 1e-5). A ray that the oracle misses by
 /// more than δ = 64 ε / sin θ in barycentric terms must miss. Every ray, ambiguous or
 /// not, must give a finite t and a
 /// finite hit point and normal from `Tracer::surface`.
@@ -1087,7 +1019,7 @@ fn grazing_rays_on_a_tilted_mesh_match_the_oracle() {
         };
         for (ai, &theta) in GRAZING.iter().enumerate() {
             for side in [1.0, -1.0] {
-                let d = grazing(along, n.map(|x| x * side), theta);
+                let d = grazing_dir(unit(along), n.map(|x| x * side), theta);
                 let o = target - d * 0.8;
                 let ray = Ray::new(o, d);
                 let got = closest(&accel, &scene, &ray);
@@ -1100,7 +1032,12 @@ fn grazing_rays_on_a_tilted_mesh_match_the_oracle() {
                     );
                 }
                 let sin = theta.sin();
-                let oracle = soup_oracle(&tris, &ray);
+                // Every triangle's plane distance t and smallest barycentric coordinate.
+                let oracle: Vec<(f64, f64)> = tris
+                    .iter()
+                    .filter_map(|&t| triangle_oracle(t, &ray))
+                    .map(|h| (h.t, h.margin))
+                    .collect();
                 // The exact first hit, and whether any triangle is hit or nearly hit.
                 let best = oracle
                     .iter()
@@ -1118,7 +1055,7 @@ fn grazing_rays_on_a_tilted_mesh_match_the_oracle() {
                         panic!("θ = {theta}: lost {ray:?}, oracle t = {best}")
                     }
                     (Some(h), true) if solid => {
-                        let tol = (2.0 * EPS * (1.0 + (l1(o) + l1(corner)) / best) / sin).max(1e-5);
+                        let tol = planar_tol(o, corner, best, sin);
                         let t = h.t as f64;
                         assert!(
                             (t - best).abs() <= tol * best,

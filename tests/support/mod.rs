@@ -1,6 +1,8 @@
 //! Shared helpers of the integration tests: scenes from TOML text, renders on a given
-//! number of threads.
+//! number of threads; `oracle`: the f64 oracles of the intersection kernels.
 #![allow(dead_code)]
+
+pub mod oracle;
 
 use raytracer::accel::{Accel, AccelKind};
 use raytracer::render::{render, Film, RenderSettings, Rendered};
