@@ -426,6 +426,7 @@ fn sphere_t_window() {
 fn sphere_random_rays_match_oracle() {
     let mut rng = Rng(4);
     let (mut compared, mut hits, mut skipped) = (0, 0, 0);
+    // The largest error as a fraction of its bound.
     let mut worst = 0.0f64;
     for i in 0..6000 {
         let c = rng.vec_in(-10.0, 10.0);
@@ -467,8 +468,8 @@ fn sphere_random_rays_match_oracle() {
             (None, None) => {}
             (Some(t), Some(e)) => {
                 hits += 1;
-                worst = worst.max(rel_err(t, e));
                 let tol = sphere_tol((o - c).length() as f64, e, roots.unwrap().sin);
+                worst = worst.max(rel_err(t, e) / tol);
                 assert_close(got, e, tol, &format!("{ray:?} c={c} r={r}"));
             }
             _ => panic!("c={c} r={r} {ray:?} [{t_min}, {t_max}]: got {got:?}, oracle {expected:?}"),
@@ -478,7 +479,14 @@ fn sphere_random_rays_match_oracle() {
         compared > 5500 && hits > 1500,
         "{compared} {hits} {skipped}"
     );
-    eprintln!("sphere: {compared} compared, {hits} hits, {skipped} skipped, worst {worst:e}");
+    // Skipped rays (within `EDGE_MARGIN` of an edge or a window bound, or grazing under
+    // `MIN_GRAZING_SIN`) are rare by construction, about a ray in a thousand (measured:
+    // 0 of 6 000): more than 1% would leave the comparison blind where it matters.
+    assert!(skipped * 100 <= compared, "{skipped} skipped of {compared}");
+    // The worst error, as a fraction of `sphere_tol`, is 0.04 (t within 4e-7 relative):
+    // half the bound still fails on a kernel that loses the precision of the
+    // perpendicular-distance discriminant.
+    assert!(worst <= 0.5, "worst error {worst} of the bound");
 }
 
 // ---------------------------------------------------------------------------------------
@@ -719,6 +727,7 @@ fn quad_grazing_rays() {
 fn quad_random_rays_match_oracle() {
     let mut rng = Rng(5);
     let (mut compared, mut hits, mut skipped) = (0, 0, 0);
+    // The largest error as a fraction of its bound.
     let mut worst = 0.0f64;
     for i in 0..6000 {
         let corner = rng.vec_in(-10.0, 10.0);
@@ -769,15 +778,22 @@ fn quad_random_rays_match_oracle() {
             (None, None) => {}
             (Some(t), Some(e)) => {
                 hits += 1;
-                worst = worst.max(rel_err(t, e));
                 let tol = planar_tol(o, corner, e, oracle.as_ref().unwrap().sin);
+                worst = worst.max(rel_err(t, e) / tol);
                 assert_close(got, e, tol, &format!("{q:?} {ray:?}"));
             }
             _ => panic!("{q:?} {ray:?} [{t_min}, {t_max}]: got {got:?}, oracle {expected:?}"),
         }
     }
     assert!(compared > 5000 && hits > 700, "{compared} {hits} {skipped}");
-    eprintln!("quad: {compared} compared, {hits} hits, {skipped} skipped, worst {worst:e}");
+    // Skipped rays (within `EDGE_MARGIN` of an edge or a window bound, or grazing under
+    // `MIN_GRAZING_SIN`) are rare by construction, about a ray in a thousand (measured:
+    // 4 of 5 986): more than 1% would leave the comparison blind where it matters.
+    assert!(skipped * 100 <= compared, "{skipped} skipped of {compared}");
+    // The worst error, as a fraction of `planar_tol`, is 0.17 here and below 0.2 over a
+    // dozen seeds: the bound's δ allows 2 ε per coordinate, the kernel uses fewer. Half
+    // the bound keeps that margin checked.
+    assert!(worst <= 0.5, "worst error {worst} of the bound");
 }
 
 // ---------------------------------------------------------------------------------------
@@ -1031,6 +1047,7 @@ fn triangle_grazing_rays() {
 fn triangle_random_rays_match_oracle() {
     let mut rng = Rng(6);
     let (mut compared, mut hits, mut skipped) = (0, 0, 0);
+    // The largest error as a fraction of its bound.
     let mut worst = 0.0f64;
     for i in 0..6000 {
         let a = rng.vec_in(-10.0, 10.0);
@@ -1079,15 +1096,22 @@ fn triangle_random_rays_match_oracle() {
             (None, None) => {}
             (Some(t), Some(e)) => {
                 hits += 1;
-                worst = worst.max(rel_err(t, e));
                 let tol = planar_tol(o, a, e, oracle.as_ref().unwrap().sin);
+                worst = worst.max(rel_err(t, e) / tol);
                 assert_close(got, e, tol, &format!("{tri:?} {ray:?}"));
             }
             _ => panic!("{tri:?} {ray:?} [{t_min}, {t_max}]: got {got:?}, oracle {expected:?}"),
         }
     }
     assert!(compared > 5000 && hits > 700, "{compared} {hits} {skipped}");
-    eprintln!("triangle: {compared} compared, {hits} hits, {skipped} skipped, worst {worst:e}");
+    // Skipped rays (within `EDGE_MARGIN` of an edge or a window bound, or grazing under
+    // `MIN_GRAZING_SIN`) are rare by construction, about a ray in a thousand (measured:
+    // 9 of 5 984): more than 1% would leave the comparison blind where it matters.
+    assert!(skipped * 100 <= compared, "{skipped} skipped of {compared}");
+    // The worst error, as a fraction of `planar_tol`, is 0.05 here and below 0.2 over a
+    // dozen seeds: the bound's δ allows 2 ε per coordinate, the kernel uses fewer. Half
+    // the bound keeps that margin checked.
+    assert!(worst <= 0.5, "worst error {worst} of the bound");
 }
 
 /// Exact orientation of (p, q) seen from the origin, p × q, for f32 inputs: the products
