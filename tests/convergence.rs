@@ -82,7 +82,6 @@ fn independent_mse_falls_as_one_over_spp() {
         })
         .collect();
     let slope = log_log_slope(&points);
-    eprintln!("independent: MSE by spp {points:?}, slope {slope:.3}");
     assert!(
         (slope + 1.0).abs() < 0.15,
         "slope {slope}, points {points:?}"
@@ -104,7 +103,6 @@ fn structured_samplers_beat_independent_at_equal_spp() {
         let independent = mse(SamplerKind::Independent);
         for k in [SamplerKind::Stratified, SamplerKind::Sobol] {
             let m = mse(k);
-            eprintln!("spp {spp}: {k:?} MSE {m:.3e}, independent {independent:.3e}");
             assert!(
                 m < 0.8 * independent,
                 "{k:?} at {spp} spp: MSE {m} not below 0.8 × independent {independent}"
@@ -129,8 +127,10 @@ fn the_reference_noise_is_small() {
         .map(|(x, y)| (*x + *y) * 0.5)
         .collect();
     let mse64 = metrics::mse(&ind.pixels, &mean);
-    eprintln!("reference MSE {reference_mse:.3e}, independent 64 spp {mse64:.3e}");
-    assert!(reference_mse < 0.1 * mse64);
+    assert!(
+        reference_mse < 0.1 * mse64,
+        "reference MSE {reference_mse:.3e}, independent 64 spp {mse64:.3e}"
+    );
 }
 
 /// Every sampler renders the same bits on one and two threads.

@@ -129,12 +129,12 @@ fn looks_like_the_original_render() {
         let max = diffs.iter().cloned().fold(0.0, f64::max);
         let at = diffs.iter().position(|&d| d == max).unwrap_or(0) / 3;
         let bw = film.width as usize / 8;
-        eprintln!("{name}: worst block ({}, {})", at % bw, at / bw);
         let mean = diffs.iter().sum::<f64>() / diffs.len() as f64;
-        eprintln!("{name}: block difference max {max:.2}, mean {mean:.3}");
         assert!(
             max < MAX_BLOCK && mean < MEAN_BLOCK,
-            "{name}: max {max:.2}, mean {mean:.3}"
+            "{name}: block difference max {max:.2} (block ({}, {})), mean {mean:.3}",
+            at % bw,
+            at / bw
         );
     }
 }
