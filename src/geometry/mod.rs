@@ -10,6 +10,8 @@
 //! reciprocals.
 
 pub mod aabb;
+#[cfg(test)]
+pub(crate) mod lane_check;
 pub mod quad;
 pub mod spawn;
 pub mod sphere;

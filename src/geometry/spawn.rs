@@ -115,6 +115,8 @@ pub fn spawn_origin<L: Lane>(point: V3<L>, error: V3<L>, n: V3<L>, dir: V3<L>) -
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::lane_check::{check, out, v3, Kernel};
+    use crate::geometry::sphere::sphere_normal;
 
     #[test]
     fn gamma_values() {
@@ -132,5 +134,58 @@ mod tests {
         assert!(up.origin.x > 1000.001);
         let down = spawn_ray(&p, Vec3::X, Vec3::new(-1.0, 1.0, 0.0).normalize());
         assert!(down.origin.x < 999.999);
+    }
+
+    #[test]
+    fn sphere_point_and_normal_lanes_match_the_scalar_kernels() {
+        struct K;
+        impl Kernel for K {
+            const IN: usize = 7;
+            fn eval<L: Lane>(x: &[L]) -> Vec<L> {
+                let (c, r, hit) = (v3(x), x[3], v3(&x[4..]));
+                let (p, e) = sphere_point_lanes(c, r, hit);
+                out(&[p, e, sphere_normal(c, r, p)])
+            }
+        }
+        check::<K>("sphere_point, sphere_normal");
+    }
+
+    #[test]
+    fn planar_point_lanes_match_the_scalar_kernel() {
+        struct K;
+        impl Kernel for K {
+            const IN: usize = 15;
+            fn eval<L: Lane>(x: &[L]) -> Vec<L> {
+                let v = |i: usize| v3(&x[3 * i..]);
+                let (p, e) = planar_point_lanes(v(0), v(1), v(2), v(3), v(4));
+                out(&[p, e])
+            }
+        }
+        check::<K>("planar_point");
+    }
+
+    #[test]
+    fn spawn_origin_lanes_match_the_scalar_kernel() {
+        struct K;
+        impl Kernel for K {
+            const IN: usize = 12;
+            fn eval<L: Lane>(x: &[L]) -> Vec<L> {
+                let v = |i: usize| v3(&x[3 * i..]);
+                // Error bounds are small and not negative, as the hit points give them.
+                let e = v(1);
+                let small = L::splat(1e-6);
+                let error = V3::new(e.x.abs() * small, e.y.abs() * small, e.z.abs() * small);
+                out(&[spawn_origin(v(0), error, v(2), v(3))])
+            }
+        }
+        check::<K>("spawn_origin");
+        // The scalar `spawn_ray` is the kernel at f32: its origin moves off the surface.
+        let p = ErrorPoint {
+            point: Vec3::new(0.5, 0.0, -0.0),
+            error: Vec3::new(1e-7, 0.0, 1e-7),
+        };
+        let r = spawn_ray(&p, Vec3::Z, Vec3::new(0.0, 0.6, 0.8));
+        assert_eq!(r.origin.x, 0.5);
+        assert!(r.origin.z > 0.0);
     }
 }

@@ -606,8 +606,7 @@ pub fn normalize_or_zero<L: Lane>(v: V3<L>) -> V3<L> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::spawn::{planar_point_lanes, spawn_origin};
-    use glam::Vec4;
+    use crate::geometry::lane_check::{check, out, v3, Kernel};
     use wide::f32x8;
 
     /// Where `pow_is_zero` says so, pow is +0: a grid of shininess (112 to 2e6, ∞,
@@ -647,118 +646,12 @@ mod tests {
         assert!(skipped > 1_000_000 && kept > 100_000, "{skipped} {kept}");
     }
 
-    /// A shading kernel over lanes, with `IN` lane inputs and its outputs as lanes.
-    trait Kernel {
-        const IN: usize;
-        fn eval<L: Lane>(x: &[L]) -> Vec<L>;
-    }
-
-    /// `IN` × 8·`chunks` inputs: mostly uniform in [−2, 2), one in four an edge value
-    /// (±0, ±1, a subnormal, huge, ±∞, NaN), so selects and special cases are hit.
-    fn inputs(n_in: usize, chunks: usize) -> Vec<Vec<f32>> {
-        let edges = [
-            0.0,
-            -0.0,
-            1.0,
-            -1.0,
-            1e-40,
-            -1e-40,
-            1e30,
-            -1e30,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::NAN,
-            f32::MIN_POSITIVE,
-        ];
-        let mut state = 0x9e37_79b9u32;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            state
-        };
-        (0..n_in)
-            .map(|_| {
-                (0..8 * chunks)
-                    .map(|_| {
-                        let r = next();
-                        if r % 4 == 0 {
-                            edges[(r >> 8) as usize % edges.len()]
-                        } else {
-                            (r >> 8) as f32 / (1 << 24) as f32 * 4.0 - 2.0
-                        }
-                    })
-                    .collect()
-            })
-            .collect()
-    }
-
-    /// Every output lane of `K` at widths 4 and 8 has the bits of the scalar kernel on
-    /// that lane's inputs (any NaN matching any NaN).
-    fn check<K: Kernel>(name: &str) {
-        let chunks = 2000;
-        let x = inputs(K::IN, chunks);
-        let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
-        for c in 0..chunks {
-            let at = |i: usize| -> Vec<f32> { x.iter().map(|v| v[8 * c + i]).collect() };
-            let scalar: Vec<Vec<f32>> = (0..8).map(|i| K::eval::<f32>(&at(i))).collect();
-            let eight = K::eval::<f32x8>(
-                &x.iter()
-                    .map(|v| f32x8::from_fn(|i| v[8 * c + i]))
-                    .collect::<Vec<_>>(),
-            );
-            for half in 0..2 {
-                let four = K::eval::<Vec4>(
-                    &x.iter()
-                        .map(|v| <Vec4 as Lane>::from_fn(|i| v[8 * c + 4 * half + i]))
-                        .collect::<Vec<_>>(),
-                );
-                for (o, (w4, w8)) in four.iter().zip(&eight).enumerate() {
-                    for i in 0..4 {
-                        let k = 4 * half + i;
-                        let want = scalar[k][o];
-                        assert!(
-                            same(w4.lane(i), want) && same(w8.lane(k), want),
-                            "{name}: output {o}, lane {k}, inputs {:?}: scalar {want:e}, \
-                             4 wide {:e}, 8 wide {:e}",
-                            at(k),
-                            w4.lane(i),
-                            w8.lane(k),
-                        );
-                    }
-                }
-            }
-        }
-    }
-
-    fn v3<L: Lane>(x: &[L]) -> V3<L> {
-        V3::new(x[0], x[1], x[2])
-    }
-
-    fn out<L: Lane>(vs: &[V3<L>]) -> Vec<L> {
-        vs.iter().flat_map(|v| [v.x, v.y, v.z]).collect()
-    }
-
     fn mask<L: Lane>(m: L::Mask) -> L {
         L::select(m, L::splat(1.0), L::splat(0.0))
     }
 
     fn bits<L: Lane>(b: u32) -> L {
         L::from_fn(|i| (b >> i & 1) as f32)
-    }
-
-    #[test]
-    fn sphere_point_and_normal_lanes_match_the_scalar_kernels() {
-        struct K;
-        impl Kernel for K {
-            const IN: usize = 7;
-            fn eval<L: Lane>(x: &[L]) -> Vec<L> {
-                let (c, r, hit) = (v3(x), x[3], v3(&x[4..]));
-                let (p, e) = sphere_point_lanes(c, r, hit);
-                out(&[p, e, sphere_normal(c, r, p)])
-            }
-        }
-        check::<K>("sphere_point, sphere_normal");
     }
 
     #[test]
@@ -782,45 +675,6 @@ mod tests {
         )
         .2;
         assert_eq!(n.lane(0), Vec3::Z);
-    }
-
-    #[test]
-    fn planar_point_lanes_match_the_scalar_kernel() {
-        struct K;
-        impl Kernel for K {
-            const IN: usize = 15;
-            fn eval<L: Lane>(x: &[L]) -> Vec<L> {
-                let v = |i: usize| v3(&x[3 * i..]);
-                let (p, e) = planar_point_lanes(v(0), v(1), v(2), v(3), v(4));
-                out(&[p, e])
-            }
-        }
-        check::<K>("planar_point");
-    }
-
-    #[test]
-    fn spawn_origin_lanes_match_the_scalar_kernel() {
-        struct K;
-        impl Kernel for K {
-            const IN: usize = 12;
-            fn eval<L: Lane>(x: &[L]) -> Vec<L> {
-                let v = |i: usize| v3(&x[3 * i..]);
-                // Error bounds are small and not negative, as the hit points give them.
-                let e = v(1);
-                let small = L::splat(1e-6);
-                let error = V3::new(e.x.abs() * small, e.y.abs() * small, e.z.abs() * small);
-                out(&[spawn_origin(v(0), error, v(2), v(3))])
-            }
-        }
-        check::<K>("spawn_origin");
-        // The scalar `spawn_ray` is the kernel at f32: its origin moves off the surface.
-        let p = ErrorPoint {
-            point: Vec3::new(0.5, 0.0, -0.0),
-            error: Vec3::new(1e-7, 0.0, 1e-7),
-        };
-        let r = spawn_ray(&p, Vec3::Z, Vec3::new(0.0, 0.6, 0.8));
-        assert_eq!(r.origin.x, 0.5);
-        assert!(r.origin.z > 0.0);
     }
 
     #[test]
