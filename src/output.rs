@@ -643,7 +643,9 @@ mod tests {
         set.add(&report, |out| out.write_all(b"{}")).unwrap();
         assert!(set.commit().is_err());
         assert_eq!(names(dir.path()), ["r.json"]);
-        assert!(pending().is_empty());
+        // Nothing of this directory is left to remove on a signal (other tests, running
+        // in parallel, may have their own files pending).
+        assert!(!pending().iter().any(|p| p.starts_with(dir.path())));
     }
 
     #[test]
