@@ -51,7 +51,8 @@ pub struct RayCounts {
     /// adds nothing whether lit or not, and packets answered at once (they miss the
     /// scene's box, or their tile's camera cone meets nothing).
     pub shadow_culled: u64,
-    /// Packets answered without a traversal (see `shadow_culled`).
+    /// Packets answered without a traversal (see `shadow_culled`). At width 1 a packet
+    /// is one ray: each camera sample of a tile whose cone meets nothing counts once.
     pub packets_outside: u64,
     /// Camera rays' tests skipped by their tile's cone (`Tracer::camera_cull`):
     /// primitive tests beside the tree (one a lane), and packets kept out of the tree.
@@ -166,7 +167,8 @@ pub struct Tracer<'a> {
     /// Skip work that cannot change the image (ARCHITECTURE.md, "Specialisation";
     /// `--no-specialize` turns it off): shadow rays of light samples that add nothing lit
     /// or not, and packets that miss the scene's bounds, camera packets' tests their
-    /// tile's cone rules out (`camera_cull`). The image is the same bits either way.
+    /// tile's cone rules out (`camera_cull`), the rays of a tile (of packets or single
+    /// rays) whose cone meets nothing. The image is the same bits either way.
     pub specialize: bool,
     /// The per-object tables shading sorts lanes by (`shade::ShadeTables`).
     pub(crate) tables: shade::ShadeTables,
