@@ -250,6 +250,56 @@ impl QuadPool {
     }
 }
 
+/// One quad of a pool with what one ray's test of it reads, copied out of the pool once
+/// (the quad kept beside the BVH when it is the only one: `spheres`' backdrop): no
+/// group loop and no index into the pool's columns per ray.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct OneQuad {
+    /// `QuadPool::plane` and `QuadPool::rows` of the quad.
+    plane: [f32; 4],
+    rows: [Vec4; 3],
+    /// Its pool index, id and object.
+    pub index: usize,
+    pub id: u32,
+    pub object: u32,
+}
+
+impl OneQuad {
+    /// Quad `i` of `pool`.
+    pub fn new(pool: &QuadPool, i: usize) -> Self {
+        OneQuad {
+            plane: pool.plane[i],
+            rows: pool.rows[i],
+            index: i,
+            id: pool.id[i],
+            object: pool.object[i],
+        }
+    }
+
+    /// `QuadPool::intersect_lazy` of this quad: the same steps on the same values.
+    #[inline(always)]
+    pub fn intersect_lazy(
+        &self,
+        ray: &Ray,
+        w: impl FnOnce() -> WatertightRay,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<f32> {
+        let [nx, ny, nz, d] = self.plane;
+        let n = V3::splat(Vec3::new(nx, ny, nz));
+        let v = V3::splat;
+        let (t, hit) = plane_distance(n, d, v(ray.origin), v(ray.dir), t_min, t_max);
+        (hit && self.passes_through(&w())).then_some(t)
+    }
+
+    /// `passes_through` for this quad, out of line: the plane test above is inlined
+    /// into the traversals, the edge test (for the rays that meet the plane) is not.
+    #[inline(never)]
+    fn passes_through(&self, w: &WatertightRay) -> bool {
+        passes_through(w, &self.rows)
+    }
+}
+
 /// Eight quads of a pool, structure-of-arrays in `f32x8` lanes, for one ray to test
 /// them at once (the quads kept beside the BVH): the vertices, `vertices[k][axis]`, and
 /// the planes. A group past the pool's end is padded with copies of its last quad,
