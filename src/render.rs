@@ -190,9 +190,12 @@ fn render_tile_scalar(tracer: &Tracer, tile: Rect, rows: &mut [&mut [Vec3]]) -> 
     }
     for (y, row) in (tile.y0..tile.y1).zip(rows.iter_mut()) {
         for (x, pixel) in (tile.x0..tile.x1).zip(row.iter_mut()) {
+            let hashes = tracer.pixel_hashes::<f32>(x, y);
             let mut sum = Vec3::ZERO;
             for s in 0..spp {
-                sum += tracer.sample(x, y, s, &mut counts);
+                sum += tracer
+                    .sample_pixels::<f32>(x, y, &hashes, 1, s, cull, &mut counts)
+                    .lane(0);
             }
             *pixel = sum / spp as f32;
         }

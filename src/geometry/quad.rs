@@ -52,6 +52,16 @@ pub struct QuadPool {
     pub object: Vec<u32>,
 }
 
+/// A quad's corner, edges, plane vector and unit normal (`QuadPool::frame`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct QuadFrame {
+    pub corner: Vec3,
+    pub u: Vec3,
+    pub v: Vec3,
+    pub w: Vec3,
+    pub normal: Vec3,
+}
+
 /// The per-quad constants, gathered (used by the scalar path and by light sampling).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Quad {
@@ -201,6 +211,21 @@ impl QuadPool {
             w: Vec3::new(self.wx[i], self.wy[i], self.wz[i]),
             vertices: self.vertices(i),
             rows: self.rows[i],
+        }
+    }
+
+    /// What a hit point on quad `i` is rebuilt from (`spawn::planar_point`) and its
+    /// normal: the corner Q, the edges u and v, the plane vector w and the unit normal.
+    /// Five loads of three columns each, where `get` gathers the whole quad (its
+    /// vertices and rows too) out of line: surfaces need only these.
+    #[inline(always)]
+    pub fn frame(&self, i: usize) -> QuadFrame {
+        QuadFrame {
+            corner: Vec3::new(self.qx[i], self.qy[i], self.qz[i]),
+            u: Vec3::new(self.ux[i], self.uy[i], self.uz[i]),
+            v: Vec3::new(self.vx[i], self.vy[i], self.vz[i]),
+            w: Vec3::new(self.wx[i], self.wy[i], self.wz[i]),
+            normal: self.normal(i),
         }
     }
 

@@ -278,7 +278,7 @@ impl<'a> Tracer<'a> {
                 (p, scene.spheres.normal(i, p.point))
             }
             PrimKind::Quad => {
-                let q = scene.quads.get(i);
+                let q = scene.quads.frame(i);
                 let v = V3::<f32>::splat;
                 let (p, e) = planar_point_lanes(v(q.corner), v(q.u), v(q.v), v(q.w), v(on_ray));
                 let p = ErrorPoint {
@@ -339,7 +339,7 @@ impl<'a> Tracer<'a> {
             let i = own_or_first(&index, quads);
             let pool = &scene.quads;
             let (q, u, v, w, n) = if all_equal(&i, L::WIDTH) {
-                let (q, s) = (pool.get(i[0]), V3::splat);
+                let (q, s) = (pool.frame(i[0]), V3::splat);
                 (s(q.corner), s(q.u), s(q.v), s(q.w), s(q.normal))
             } else {
                 gather_quads(pool, &i)
@@ -530,7 +530,7 @@ type QuadVectors<L> = (V3<L>, V3<L>, V3<L>, V3<L>, V3<L>);
 #[cold]
 #[inline(never)]
 fn gather_quads<L: Lane>(pool: &QuadPool, i: &[usize; MAX_WIDTH]) -> QuadVectors<L> {
-    let quad = |k: usize| pool.get(i[k]);
+    let quad = |k: usize| pool.frame(i[k]);
     (
         V3::from_fn(|k| quad(k).corner),
         V3::from_fn(|k| quad(k).u),

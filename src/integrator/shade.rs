@@ -221,6 +221,35 @@ impl Tracer<'_> {
         cull: Cull,
         counts: &mut RayCounts,
     ) -> V3<L> {
+        let pixels = self.pixel_hashes::<L>(x0, y0);
+        self.sample_pixels(x0, y0, &pixels, active, sample, cull, counts)
+    }
+
+    /// The sampler's hashes of the pixels of a packet whose lane 0 is pixel (x0, y0)
+    /// (`Sampler::pixel_hashes`): the same for every sample of those pixels.
+    #[inline(always)]
+    pub fn pixel_hashes<L: Lane>(&self, x0: u32, y0: u32) -> [u32; MAX_WIDTH] {
+        let (fw, _) = footprint(L::WIDTH);
+        let xs: [u32; MAX_WIDTH] = std::array::from_fn(|k| x0 + k as u32 % fw);
+        let ys: [u32; MAX_WIDTH] = std::array::from_fn(|k| y0 + k as u32 / fw);
+        self.sampler.pixel_hashes(L::WIDTH, xs, ys)
+    }
+
+    /// `sample_packet` with the pixels' hashes `pixels` made (`pixel_hashes`), so a
+    /// tile makes them once for all the samples of its pixels, whatever the compiler
+    /// inlines.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub fn sample_pixels<L: Lane>(
+        &self,
+        x0: u32,
+        y0: u32,
+        pixels: &[u32; MAX_WIDTH],
+        active: u32,
+        sample: u32,
+        cull: Cull,
+        counts: &mut RayCounts,
+    ) -> V3<L> {
         let scene = self.scene;
         counts.camera += active.count_ones() as u64;
         if L::WIDTH > 1 {
@@ -239,7 +268,7 @@ impl Tracer<'_> {
         let (fw, _) = footprint(L::WIDTH);
         let xs: [u32; MAX_WIDTH] = std::array::from_fn(|k| x0 + k as u32 % fw);
         let ys: [u32; MAX_WIDTH] = std::array::from_fn(|k| y0 + k as u32 / fw);
-        let keys = self.sampler.key_lanes(L::WIDTH, xs, ys, sample);
+        let keys = self.sampler.key_lanes_of(L::WIDTH, pixels, sample);
         let camera = &scene.camera;
         // A thin lens: each lane starts at its own point of the lens disk.
         let origin = if camera.has_lens() {
