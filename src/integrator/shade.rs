@@ -361,16 +361,18 @@ impl Tracer<'_> {
         let found = hits.found & active;
         let object = hits.objects();
         // The lanes by how their hit is shaded, and the Phong material when every Phong
-        // lane has the same one. One lane: a table lookup. Few objects: one lane
+        // lane has the same one. One lane: its class from the table, each class's mask
+        // by a compare with it (in registers; a store at the class's index went through
+        // memory and every mask was read back from there). Few objects: one lane
         // compare per object. Else a table lookup per lane.
         let (by_class, uniform_phong) = if L::WIDTH == 1 {
-            let mut by_class = [0u32; CLASSES];
             let slot = if found != 0 {
                 object[0] as usize + 1
             } else {
                 0
             };
-            by_class[t.class[slot] as usize] = active;
+            let class = t.class[slot] as usize;
+            let by_class = std::array::from_fn(|c| if c == class { active } else { 0 });
             (by_class, t.phong_of[slot])
         } else if t.few {
             let mut by_class = [0u32; CLASSES];
