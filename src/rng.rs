@@ -203,15 +203,37 @@ impl Sampler {
         y: [u32; MAX_LANES],
         sample: u32,
     ) -> KeyLanes {
+        self.key_lanes_of(width, &self.pixel_hashes(width, x, y), sample)
+    }
+
+    /// hash(seed, x\[k\], y\[k\]) in lane k < `width` (0 in the others): what every key
+    /// of pixel (x\[k\], y\[k\]) starts from, the same for all its samples, so a tile
+    /// makes it once a pixel (`key_lanes_of`).
+    #[inline(always)]
+    pub fn pixel_hashes(
+        &self,
+        width: usize,
+        x: [u32; MAX_LANES],
+        y: [u32; MAX_LANES],
+    ) -> [u32; MAX_LANES] {
         let h0 = hash_u32(self.seed);
-        let (mut pixel, mut hash) = ([0; MAX_LANES], [0; MAX_LANES]);
+        let mut pixel = [0; MAX_LANES];
         for i in 0..width {
             pixel[i] = hash_u32(hash_u32(h0.wrapping_add(x[i])).wrapping_add(y[i]));
+        }
+        pixel
+    }
+
+    /// `key_lanes` of the pixels whose `pixel_hashes` are `pixel`.
+    #[inline(always)]
+    pub fn key_lanes_of(&self, width: usize, pixel: &[u32; MAX_LANES], sample: u32) -> KeyLanes {
+        let mut hash = [0; MAX_LANES];
+        for i in 0..width {
             hash[i] = hash_u32(pixel[i].wrapping_add(sample));
         }
         KeyLanes {
             hash,
-            pixel,
+            pixel: *pixel,
             sample,
             spp: self.spp,
             kind: self.kind,

@@ -10,7 +10,7 @@
 
 use super::build::{self, BuildTree, NodeId, PrimRef};
 use super::TraversalStats;
-use crate::geometry::quad::QuadLanes;
+use crate::geometry::quad::{OneQuad, QuadLanes};
 use crate::geometry::spawn::gamma;
 use crate::geometry::sphere::{sphere_distance, sphere_intersect_with, SpherePool, SphereRay};
 use crate::geometry::triangle::{Columns, WatertightRay};
@@ -267,9 +267,12 @@ pub struct Bvh4 {
     /// with one 8-lane edge test (the `quads` scene's six quads in one pass; one at a
     /// time they were 37% of its scalar render, callgrind).
     linear_quads: Vec<QuadLanes>,
-    /// Quads or triangles lie beside the tree (`linear[1]` or `linear[2]` not empty):
-    /// one flag a ray reads instead of two ranges.
-    quads_or_triangles_beside: bool,
+    /// What besides spheres lies beside the tree, so a single ray takes the cheapest
+    /// path: one value it reads instead of two ranges.
+    beside: Beside,
+    /// The quad beside the tree when it is the only quad or triangle there
+    /// (`Beside::OneQuad`; else unread).
+    one_quad: OneQuad,
     /// The box of the tree's primitives (`Aabb::EMPTY` without a tree): what the
     /// camera's cones test before the tree (`cull::CullTargets`).
     pub tree_box: Aabb,
@@ -283,6 +286,18 @@ pub struct Bvh4 {
 /// 75% of `bunny`'s shadow packets miss its mesh's box (render instructions −4.3%),
 /// while in `cornell` the tree holds the room and every ray is inside it (+1.0%).
 pub const TREE_BOX_FIRST: f32 = 0.5;
+
+/// The quads and triangles beside the tree, as the scalar traversals test them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Beside {
+    /// None (`linear[1]` and `linear[2]` empty).
+    Nothing,
+    /// One quad and no triangle (`spheres`' backdrop): tested inline, without the pools'
+    /// loops (`Bvh4::one_quad`).
+    OneQuad,
+    /// Anything else: the quads eight at a time (`QuadLanes`), the triangles four.
+    Pools,
+}
 
 /// Eight spheres, structure-of-arrays in `f32x8` lanes.
 #[derive(Clone, Copy, Debug)]
@@ -678,7 +693,8 @@ impl Bvh4 {
             leaves: 0,
             linear_spheres: Vec::new(),
             linear_quads: Vec::new(),
-            quads_or_triangles_beside: false,
+            beside: Beside::Nothing,
+            one_quad: OneQuad::default(),
             tree_box: tree
                 .as_ref()
                 .map_or(Aabb::EMPTY, |t| t.node(BuildTree::ROOT).bounds),
@@ -723,7 +739,12 @@ impl Bvh4 {
         );
         bvh.linear_spheres = pack_spheres(&scene.spheres, bvh.linear[0].clone());
         bvh.linear_quads = QuadLanes::pack(&scene.quads, bvh.linear[1].clone());
-        bvh.quads_or_triangles_beside = !bvh.linear[1].is_empty() || !bvh.linear[2].is_empty();
+        let (quads, triangles) = (bvh.linear[1].clone(), bvh.linear[2].clone());
+        (bvh.beside, bvh.one_quad) = match (quads.len(), triangles.len()) {
+            (0, 0) => (Beside::Nothing, OneQuad::default()),
+            (1, 0) => (Beside::OneQuad, OneQuad::new(&scene.quads, quads.start)),
+            _ => (Beside::Pools, OneQuad::default()),
+        };
         bvh
     }
 
@@ -822,9 +843,24 @@ impl Bvh4 {
                 );
             }
         }
-        if self.quads_or_triangles_beside {
-            self.linear_quads_triangles(scene, consts, t_min, c, stats);
+        match self.beside {
+            Beside::OneQuad => {
+                let q = &self.one_quad;
+                stats.prims += 1;
+                let ray = consts.ray;
+                let w = || *consts.triangle();
+                if let Some(t) = q.intersect_lazy(ray, w, t_min, c.t_max) {
+                    c.offer(t, q.id, PrimKind::Quad, q.index);
+                }
+            }
+            Beside::Nothing => {}
+            Beside::Pools => self.linear_quads_triangles(scene, consts, t_min, c, stats),
         }
+    }
+
+    /// What beside the tree a single ray tests after the spheres.
+    pub fn beside(&self) -> Beside {
+        self.beside
     }
 
     #[inline(never)]
@@ -1018,6 +1054,19 @@ impl Bvh4 {
                     return true;
                 }
             }
+        }
+        match self.beside {
+            Beside::Nothing => return false,
+            Beside::OneQuad => {
+                let q = &self.one_quad;
+                stats.prims += 1;
+                let ray = consts.ray;
+                let w = || *consts.triangle();
+                return q.object != object
+                    && q.intersect_lazy(ray, w, t_min, t_light)
+                        .is_some_and(|t| occludes(t, q.id, q.object));
+            }
+            Beside::Pools => {}
         }
         if !self.linear[1].is_empty() {
             stats.prims += self.linear[1].len() as u64;

@@ -82,6 +82,9 @@ impl TraversalStats {
 }
 
 /// A built acceleration structure over a compiled scene.
+// One a render, built once and borrowed by every tile: the BVH's inline fields (the
+// lone quad beside it among them) are read on every ray without a pointer to follow.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 pub enum Accel {
     Linear(LinearScan),

@@ -42,7 +42,7 @@ struct Rays {
     total: u64,
     /// Skipped by specialisation: shadow rays whose sample adds nothing lit or not,
     /// and packets answered at once (outside the scene's box, or a tile's camera cone
-    /// that meets nothing).
+    /// that meets nothing; at width 1 each camera ray of such a tile counts as one).
     shadow_culled: u64,
     packets_outside: u64,
     /// Camera packets' tests ruled out by their tile's cone: primitive tests beside the

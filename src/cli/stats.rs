@@ -37,7 +37,7 @@ pub fn print(run: &Run) {
         to_stderr!("stats: specialisation off (--no-specialize)");
     } else {
         to_stderr!(
-            "stats: skipped: {} shadow rays (their light sample adds nothing, lit or not), {} packets that miss everything (the scene's box, or their tile's cone)",
+            "stats: skipped: {} shadow rays (their light sample adds nothing, lit or not), {} packets that miss everything (the scene's box, or their tile's cone; at width 1 one a camera ray)",
             counts.shadow_culled, counts.packets_outside
         );
         if w > 1 {

@@ -52,6 +52,16 @@ pub struct QuadPool {
     pub object: Vec<u32>,
 }
 
+/// A quad's corner, edges, plane vector and unit normal (`QuadPool::frame`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct QuadFrame {
+    pub corner: Vec3,
+    pub u: Vec3,
+    pub v: Vec3,
+    pub w: Vec3,
+    pub normal: Vec3,
+}
+
 /// The per-quad constants, gathered (used by the scalar path and by light sampling).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Quad {
@@ -204,6 +214,21 @@ impl QuadPool {
         }
     }
 
+    /// What a hit point on quad `i` is rebuilt from (`spawn::planar_point`) and its
+    /// normal: the corner Q, the edges u and v, the plane vector w and the unit normal.
+    /// Five loads of three columns each, where `get` gathers the whole quad (its
+    /// vertices and rows too) out of line: surfaces need only these.
+    #[inline(always)]
+    pub fn frame(&self, i: usize) -> QuadFrame {
+        QuadFrame {
+            corner: Vec3::new(self.qx[i], self.qy[i], self.qz[i]),
+            u: Vec3::new(self.ux[i], self.uy[i], self.uz[i]),
+            v: Vec3::new(self.vx[i], self.vy[i], self.vz[i]),
+            w: Vec3::new(self.wx[i], self.wy[i], self.wz[i]),
+            normal: self.normal(i),
+        }
+    }
+
     #[inline]
     pub fn normal(&self, i: usize) -> Vec3 {
         let [x, y, z, _] = self.plane[i];
@@ -247,6 +272,56 @@ impl QuadPool {
         let v = V3::splat;
         let (t, hit) = plane_distance(n, d, v(ray.origin), v(ray.dir), t_min, t_max);
         (hit && passes_through(&w(), &self.rows[i])).then_some(t)
+    }
+}
+
+/// One quad of a pool with what one ray's test of it reads, copied out of the pool once
+/// (the quad kept beside the BVH when it is the only one: `spheres`' backdrop): no
+/// group loop and no index into the pool's columns per ray.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct OneQuad {
+    /// `QuadPool::plane` and `QuadPool::rows` of the quad.
+    plane: [f32; 4],
+    rows: [Vec4; 3],
+    /// Its pool index, id and object.
+    pub index: usize,
+    pub id: u32,
+    pub object: u32,
+}
+
+impl OneQuad {
+    /// Quad `i` of `pool`.
+    pub fn new(pool: &QuadPool, i: usize) -> Self {
+        OneQuad {
+            plane: pool.plane[i],
+            rows: pool.rows[i],
+            index: i,
+            id: pool.id[i],
+            object: pool.object[i],
+        }
+    }
+
+    /// `QuadPool::intersect_lazy` of this quad: the same steps on the same values.
+    #[inline(always)]
+    pub fn intersect_lazy(
+        &self,
+        ray: &Ray,
+        w: impl FnOnce() -> WatertightRay,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<f32> {
+        let [nx, ny, nz, d] = self.plane;
+        let n = V3::splat(Vec3::new(nx, ny, nz));
+        let v = V3::splat;
+        let (t, hit) = plane_distance(n, d, v(ray.origin), v(ray.dir), t_min, t_max);
+        (hit && self.passes_through(&w())).then_some(t)
+    }
+
+    /// `passes_through` for this quad, out of line: the plane test above is inlined
+    /// into the traversals, the edge test (for the rays that meet the plane) is not.
+    #[inline(never)]
+    fn passes_through(&self, w: &WatertightRay) -> bool {
+        passes_through(w, &self.rows)
     }
 }
 

@@ -51,7 +51,8 @@ pub struct RayCounts {
     /// adds nothing whether lit or not, and packets answered at once (they miss the
     /// scene's box, or their tile's camera cone meets nothing).
     pub shadow_culled: u64,
-    /// Packets answered without a traversal (see `shadow_culled`).
+    /// Packets answered without a traversal (see `shadow_culled`). At width 1 a packet
+    /// is one ray: each camera sample of a tile whose cone meets nothing counts once.
     pub packets_outside: u64,
     /// Camera rays' tests skipped by their tile's cone (`Tracer::camera_cull`):
     /// primitive tests beside the tree (one a lane), and packets kept out of the tree.
@@ -166,7 +167,8 @@ pub struct Tracer<'a> {
     /// Skip work that cannot change the image (ARCHITECTURE.md, "Specialisation";
     /// `--no-specialize` turns it off): shadow rays of light samples that add nothing lit
     /// or not, and packets that miss the scene's bounds, camera packets' tests their
-    /// tile's cone rules out (`camera_cull`). The image is the same bits either way.
+    /// tile's cone rules out (`camera_cull`), the rays of a tile (of packets or single
+    /// rays) whose cone meets nothing. The image is the same bits either way.
     pub specialize: bool,
     /// The per-object tables shading sorts lanes by (`shade::ShadeTables`).
     pub(crate) tables: shade::ShadeTables,
@@ -276,7 +278,7 @@ impl<'a> Tracer<'a> {
                 (p, scene.spheres.normal(i, p.point))
             }
             PrimKind::Quad => {
-                let q = scene.quads.get(i);
+                let q = scene.quads.frame(i);
                 let v = V3::<f32>::splat;
                 let (p, e) = planar_point_lanes(v(q.corner), v(q.u), v(q.v), v(q.w), v(on_ray));
                 let p = ErrorPoint {
@@ -337,7 +339,7 @@ impl<'a> Tracer<'a> {
             let i = own_or_first(&index, quads);
             let pool = &scene.quads;
             let (q, u, v, w, n) = if all_equal(&i, L::WIDTH) {
-                let (q, s) = (pool.get(i[0]), V3::splat);
+                let (q, s) = (pool.frame(i[0]), V3::splat);
                 (s(q.corner), s(q.u), s(q.v), s(q.w), s(q.normal))
             } else {
                 gather_quads(pool, &i)
@@ -528,7 +530,7 @@ type QuadVectors<L> = (V3<L>, V3<L>, V3<L>, V3<L>, V3<L>);
 #[cold]
 #[inline(never)]
 fn gather_quads<L: Lane>(pool: &QuadPool, i: &[usize; MAX_WIDTH]) -> QuadVectors<L> {
-    let quad = |k: usize| pool.get(i[k]);
+    let quad = |k: usize| pool.frame(i[k]);
     (
         V3::from_fn(|k| quad(k).corner),
         V3::from_fn(|k| quad(k).u),

@@ -221,6 +221,35 @@ impl Tracer<'_> {
         cull: Cull,
         counts: &mut RayCounts,
     ) -> V3<L> {
+        let pixels = self.pixel_hashes::<L>(x0, y0);
+        self.sample_pixels(x0, y0, &pixels, active, sample, cull, counts)
+    }
+
+    /// The sampler's hashes of the pixels of a packet whose lane 0 is pixel (x0, y0)
+    /// (`Sampler::pixel_hashes`): the same for every sample of those pixels.
+    #[inline(always)]
+    pub fn pixel_hashes<L: Lane>(&self, x0: u32, y0: u32) -> [u32; MAX_WIDTH] {
+        let (fw, _) = footprint(L::WIDTH);
+        let xs: [u32; MAX_WIDTH] = std::array::from_fn(|k| x0 + k as u32 % fw);
+        let ys: [u32; MAX_WIDTH] = std::array::from_fn(|k| y0 + k as u32 / fw);
+        self.sampler.pixel_hashes(L::WIDTH, xs, ys)
+    }
+
+    /// `sample_packet` with the pixels' hashes `pixels` made (`pixel_hashes`), so a
+    /// tile makes them once for all the samples of its pixels, whatever the compiler
+    /// inlines.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub fn sample_pixels<L: Lane>(
+        &self,
+        x0: u32,
+        y0: u32,
+        pixels: &[u32; MAX_WIDTH],
+        active: u32,
+        sample: u32,
+        cull: Cull,
+        counts: &mut RayCounts,
+    ) -> V3<L> {
         let scene = self.scene;
         counts.camera += active.count_ones() as u64;
         if L::WIDTH > 1 {
@@ -239,7 +268,7 @@ impl Tracer<'_> {
         let (fw, _) = footprint(L::WIDTH);
         let xs: [u32; MAX_WIDTH] = std::array::from_fn(|k| x0 + k as u32 % fw);
         let ys: [u32; MAX_WIDTH] = std::array::from_fn(|k| y0 + k as u32 / fw);
-        let keys = self.sampler.key_lanes(L::WIDTH, xs, ys, sample);
+        let keys = self.sampler.key_lanes_of(L::WIDTH, pixels, sample);
         let camera = &scene.camera;
         // A thin lens: each lane starts at its own point of the lens disk.
         let origin = if camera.has_lens() {
@@ -332,16 +361,18 @@ impl Tracer<'_> {
         let found = hits.found & active;
         let object = hits.objects();
         // The lanes by how their hit is shaded, and the Phong material when every Phong
-        // lane has the same one. One lane: a table lookup. Few objects: one lane
+        // lane has the same one. One lane: its class from the table, each class's mask
+        // by a compare with it (in registers; a store at the class's index went through
+        // memory and every mask was read back from there). Few objects: one lane
         // compare per object. Else a table lookup per lane.
         let (by_class, uniform_phong) = if L::WIDTH == 1 {
-            let mut by_class = [0u32; CLASSES];
             let slot = if found != 0 {
                 object[0] as usize + 1
             } else {
                 0
             };
-            by_class[t.class[slot] as usize] = active;
+            let class = t.class[slot] as usize;
+            let by_class = std::array::from_fn(|c| if c == class { active } else { 0 });
             (by_class, t.phong_of[slot])
         } else if t.few {
             let mut by_class = [0u32; CLASSES];
