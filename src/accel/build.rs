@@ -96,11 +96,7 @@ const COORDS: f32x8 = {
 impl PrimRef {
     pub fn new(bounds: Aabb, kind: PrimKind, index: u32) -> PrimRef {
         let (lo, hi) = (bounds.min, bounds.max);
-        let kind = match kind {
-            PrimKind::Sphere => 0,
-            PrimKind::Quad => 1,
-            PrimKind::Triangle => 2,
-        };
+        let kind = kind.slot() as u32;
         PrimRef(f32x8::new([
             lo.x,
             lo.y,
@@ -119,11 +115,7 @@ impl PrimRef {
 
     #[inline]
     pub fn kind(&self) -> PrimKind {
-        match self.0.to_array()[7].to_bits() {
-            0 => PrimKind::Sphere,
-            1 => PrimKind::Quad,
-            _ => PrimKind::Triangle,
-        }
+        PrimKind::of_slot(self.0.to_array()[7].to_bits())
     }
 
     #[inline]

@@ -123,23 +123,13 @@ pub const MAX_POOL_FOR_BVH: usize = 1 << START_BITS;
 #[inline]
 pub fn encode_leaf(kind: PrimKind, start: u32, count: u32) -> u32 {
     debug_assert!((1..=4).contains(&count) && start < (1 << START_BITS));
-    let k = match kind {
-        PrimKind::Sphere => 0,
-        PrimKind::Quad => 1,
-        PrimKind::Triangle => 2,
-    };
-    LEAF | k << 29 | (count - 1) << START_BITS | start
+    LEAF | (kind.slot() as u32) << 29 | (count - 1) << START_BITS | start
 }
 
 #[inline]
 pub fn decode_leaf(code: u32) -> (PrimKind, u32, u32) {
-    let kind = match (code >> 29) & 3 {
-        0 => PrimKind::Sphere,
-        1 => PrimKind::Quad,
-        _ => PrimKind::Triangle,
-    };
     (
-        kind,
+        PrimKind::of_slot((code >> 29) & 3),
         code & ((1 << START_BITS) - 1),
         ((code >> START_BITS) & 3) + 1,
     )
@@ -626,13 +616,13 @@ impl Bvh4 {
         // indexed `par_extend` keeps the order, so the references are the same for any
         // thread count.
         let s = &*scene;
-        let kinds = [PrimKind::Sphere, PrimKind::Quad, PrimKind::Triangle];
         // Counted on the way (a separate pass cost 5% of the 1.27M-triangle build).
         let huge_area = HUGE_FRACTION * s.bounds.surface_area();
         let huge_count = AtomicUsize::new(0);
         for k in (0..3).filter(|&k| in_tree[k]) {
             refs.par_extend((0..counts[k]).into_par_iter().map(|i| {
-                let bounds = match kinds[k] {
+                let kind = PrimKind::ALL[k];
+                let bounds = match kind {
                     PrimKind::Sphere => s.spheres.bounds(i),
                     PrimKind::Quad => s.quads.bounds(i),
                     PrimKind::Triangle => s.triangles.bounds(i),
@@ -640,7 +630,7 @@ impl Bvh4 {
                 if bounds.surface_area() >= huge_area {
                     huge_count.fetch_add(1, Ordering::Relaxed);
                 }
-                PrimRef::new(bounds, kinds[k], i as u32)
+                PrimRef::new(bounds, kind, i as u32)
             }));
         }
         let huge_count = huge_count.into_inner();
@@ -662,7 +652,7 @@ impl Bvh4 {
         let several_kinds = in_tree.iter().filter(|&&t| t).count() > 1;
         let mut position = Vec::with_capacity(if several_kinds { refs.len() } else { 0 });
         for r in &refs {
-            let k = kind_slot(r.kind());
+            let k = r.kind().slot();
             if several_kinds {
                 position.push(order[k].len() as u32);
             }
@@ -677,7 +667,7 @@ impl Bvh4 {
             let start = order[k].len();
             order[k].extend(
                 huge.iter()
-                    .filter(|r| kind_slot(r.kind()) == k)
+                    .filter(|r| r.kind().slot() == k)
                     .map(|r| r.index()),
             );
             start..counts[k]
@@ -1490,14 +1480,6 @@ fn pack_spheres(sp: &SpherePool, range: Range<usize>) -> Vec<SphereLanes> {
             }
         })
         .collect()
-}
-
-fn kind_slot(kind: PrimKind) -> usize {
-    match kind {
-        PrimKind::Sphere => 0,
-        PrimKind::Quad => 1,
-        PrimKind::Triangle => 2,
-    }
 }
 
 #[cfg(test)]

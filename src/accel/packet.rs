@@ -801,8 +801,6 @@ fn in_play<L: Lane>(lanes: u32, t: L) -> L {
     L::select(L::Mask::from_bits(lanes), t, L::splat(f32::NEG_INFINITY))
 }
 
-const KINDS: [PrimKind; 3] = [PrimKind::Sphere, PrimKind::Quad, PrimKind::Triangle];
-
 /// A packet whose rays share their origin and each axis' direction sign, bounded as one
 /// frustum: per axis the smallest and largest of the lanes' margin reciprocals. One
 /// 4-wide pass then tests a node's four children for the whole packet
@@ -904,17 +902,8 @@ pub struct PacketHits<L> {
     index: L,
     id: L,
     object: L,
-    /// The lanes whose hit is a sphere, a quad, a triangle (`kind_slot`).
+    /// The lanes whose hit is a sphere, a quad, a triangle (`PrimKind::slot`).
     kinds: [u32; 3],
-}
-
-#[inline(always)]
-fn kind_slot(kind: PrimKind) -> usize {
-    match kind {
-        PrimKind::Sphere => 0,
-        PrimKind::Quad => 1,
-        PrimKind::Triangle => 2,
-    }
 }
 
 impl<L: Lane> PacketHits<L> {
@@ -985,7 +974,7 @@ impl<L: Lane> PacketHits<L> {
     /// The lanes whose hit is of `kind`.
     #[inline(always)]
     pub fn of_kind(&self, kind: PrimKind) -> u32 {
-        self.kinds[kind_slot(kind)]
+        self.kinds[kind.slot()]
     }
 
     /// The lanes' objects (meaningful in the lanes of `found`).
@@ -1017,7 +1006,7 @@ impl<L: Lane> PacketHits<L> {
     #[inline(always)]
     fn set_kind(&mut self, kind: PrimKind, lanes: u32) {
         for (slot, m) in self.kinds.iter_mut().enumerate() {
-            *m = if slot == kind_slot(kind) {
+            *m = if slot == kind.slot() {
                 *m | lanes
             } else {
                 *m & !lanes
@@ -1125,7 +1114,7 @@ impl Bvh4 {
     ) -> PacketHits<L> {
         let mut tris = LazyTriangles::new(p, scene);
         let mut st = PacketHits::none(p.active);
-        for (k, &kind) in KINDS.iter().enumerate() {
+        for (k, &kind) in PrimKind::ALL.iter().enumerate() {
             let range = self.linear[k].clone();
             // (Not for an empty range: an empty pool must not make the watertight
             // lanes, `tris.get`.)
@@ -1455,7 +1444,7 @@ impl Bvh4 {
         let mut occluded = 0u32;
         // Lanes not tested get t_max = −∞ (no box or primitive test passes).
         let mut t_max = in_play(remaining, light.t);
-        for (k, &kind) in KINDS.iter().enumerate() {
+        for (k, &kind) in PrimKind::ALL.iter().enumerate() {
             let range = self.linear[k].clone();
             if !range.is_empty() && remaining != 0 {
                 stats.prims += (range.len() * remaining.count_ones() as usize) as u64;

@@ -275,7 +275,7 @@ mod tests {
                     PrimKind::Quad => quads,
                     PrimKind::Triangle => triangles,
                 };
-                let last = [quads, triangles, 64][kind as usize];
+                let last = [quads, triangles, 64][kind.slot()];
                 assert!(!range.is_empty() && first + range.end <= last, "{mask:x}");
                 for i in range {
                     assert_eq!(rebuilt >> (first + i) & 1, 0, "twice");

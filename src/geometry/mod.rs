@@ -51,6 +51,27 @@ pub enum PrimKind {
     Triangle,
 }
 
+impl PrimKind {
+    /// Every kind, in slot order.
+    pub const ALL: [PrimKind; 3] = [PrimKind::Sphere, PrimKind::Quad, PrimKind::Triangle];
+
+    /// The kind's index in per-kind tables (`ALL[kind.slot()] == kind`).
+    #[inline(always)]
+    pub const fn slot(self) -> usize {
+        self as usize
+    }
+
+    /// The kind of slot `s` (< 3; a larger slot is a triangle).
+    #[inline(always)]
+    pub const fn of_slot(s: u32) -> PrimKind {
+        match s {
+            0 => PrimKind::Sphere,
+            1 => PrimKind::Quad,
+            _ => PrimKind::Triangle,
+        }
+    }
+}
+
 /// The closest hit found so far along a ray.
 ///
 /// Closest means the smallest `(t, id)` pair: `id` is the primitive's scene-wide id, fixed
