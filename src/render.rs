@@ -164,30 +164,13 @@ fn render_tile(
     }
 }
 
-/// A tile one ray at a time (the scalar reference). A tile whose camera cone meets
-/// nothing is the background, as the packets' tiles are: each sample gives what a miss
-/// gives (0 + 1 · background), so every pixel is the same sum of `spp` of them, made
-/// once for the tile, and no ray is made or traced.
+/// A tile one ray at a time (the scalar reference): `sample_pixels` at `f32`, with the
+/// tile's camera cone, so a tile whose cone meets nothing makes no ray, as the packets'
+/// tiles do.
 fn render_tile_scalar(tracer: &Tracer, tile: Rect, rows: &mut [&mut [Vec3]]) -> RayCounts {
-    let scene = tracer.scene;
-    let spp = scene.spp;
+    let spp = tracer.scene.spp;
     let mut counts = RayCounts::default();
     let cull = tracer.camera_cull(tile.x0, tile.y0, tile.x1, tile.y1);
-    if cull.nothing && scene.max_depth > 0 {
-        let mut sum = Vec3::ZERO;
-        for _ in 0..spp {
-            sum += scene.background;
-        }
-        let value = sum / spp as f32;
-        let samples = tile.pixel_count() * spp as u64;
-        counts.camera += samples;
-        // One-ray packets answered at once.
-        counts.packets_outside += samples;
-        for row in rows.iter_mut() {
-            row.fill(value);
-        }
-        return counts;
-    }
     for (y, row) in (tile.y0..tile.y1).zip(rows.iter_mut()) {
         for (x, pixel) in (tile.x0..tile.x1).zip(row.iter_mut()) {
             let hashes = tracer.pixel_hashes::<f32>(x, y);
