@@ -279,11 +279,11 @@ pub const TREE_BOX_FIRST: f32 = 0.5;
 
 /// The quads and triangles beside the tree, as the scalar traversals test them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Beside {
+enum Beside {
     /// None (`linear[1]` and `linear[2]` empty).
     Nothing,
-    /// One quad and no triangle (`spheres`' backdrop): tested inline, without the pools'
-    /// loops (`Bvh4::one_quad`).
+    /// One quad and no triangle (`spheres`' backdrop): `Bvh4`'s `one_quad`, tested
+    /// inline, without the pools' loops.
     OneQuad,
     /// Anything else: the quads eight at a time (`QuadLanes`), the triangles four.
     Pools,
@@ -846,11 +846,6 @@ impl Bvh4 {
             Beside::Nothing => {}
             Beside::Pools => self.linear_quads_triangles(scene, consts, t_min, c, stats),
         }
-    }
-
-    /// What beside the tree a single ray tests after the spheres.
-    pub fn beside(&self) -> Beside {
-        self.beside
     }
 
     #[inline(never)]
