@@ -4,11 +4,13 @@
 mod support;
 
 use glam::Vec3;
-use raytracer::accel::{Accel, AccelKind, TraversalStats};
+use raytracer::accel::packet::{RayPacket, ShadowLanes, MAX_WIDTH};
+use raytracer::accel::{Accel, AccelKind, ShadowQuery, TraversalStats};
 use raytracer::geometry::{Aabb, Hit, Ray};
 use raytracer::integrator::T_MIN;
 use raytracer::scene::Scene;
 use support::{bits, builtin, obj_text, render_with, scene_with_files, Rng};
+use wide::f32x8;
 
 /// Both accelerators over (their own copies of) one scene.
 struct Pair {
@@ -340,7 +342,13 @@ fn assert_shadows_agree(scene: &Scene, n: usize) {
             unreachable!()
         };
         let t_max = rng.range(0.0, 12.0);
-        let any = bvh.occluded(&pair.bvh.0, &ray, T_MIN, t_max, u32::MAX, u32::MAX, &mut s);
+        let query = ShadowQuery {
+            t_min: T_MIN,
+            t_light: t_max,
+            id_light: u32::MAX,
+            object: u32::MAX,
+        };
+        let any = bvh.occluded(&pair.bvh.0, &ray, query, &mut s);
         let closest = pair.closest(&ray, t_max).0.is_some();
         assert_eq!(any, closest, "any-hit ray {i}, t_max {t_max}");
     }
@@ -524,4 +532,65 @@ fn every_builtin_scene_is_the_same_with_bvh_and_linear() {
             "{name}"
         );
     }
+}
+
+/// Triangles spaced in a geometric series along x: each binned SAH split peels off a few,
+/// so the tree is as deep as the build allows (`build::MAX_SAH_DEPTH`, then halvings).
+/// Rays along the series enter every box beyond their origin, and shadow queries whose
+/// light is the mesh itself find no occluder and so visit the whole tree: the deepest
+/// stacks the traversals can have here stay within their bounds (`accel::stack`, whose
+/// pushes check it), and every answer agrees with the scan.
+#[test]
+fn a_deep_tree_stays_within_the_traversal_stacks() {
+    let x = |i: usize| 1.01f32.powi(i as i32);
+    let triangles: Vec<[Vec3; 3]> = (0..2300)
+        .map(|i| {
+            let s = 0.002 * x(i);
+            [
+                Vec3::new(x(i), -s, -s),
+                Vec3::new(x(i), s, -s),
+                Vec3::new(x(i), 0.0, s),
+            ]
+        })
+        .collect();
+    let pair = Pair::new(&mesh_only(&triangles));
+    let (scene, accel) = &pair.bvh;
+    let Accel::Bvh(bvh) = accel else {
+        unreachable!()
+    };
+    assert!(bvh.depth >= 20, "4-wide depth {}", bvh.depth);
+    let object = scene.triangles.object[0];
+    let mut s = TraversalStats::default();
+    let rays: Vec<Ray> = (0..2300)
+        .step_by(7)
+        .flat_map(|i| {
+            let o = Vec3::new(0.5 * (x(i) + x(i + 1)), 0.0, 0.0);
+            [Ray::new(o, Vec3::X), Ray::new(o, -Vec3::X)]
+        })
+        .collect();
+    for (k, ray) in rays.iter().enumerate() {
+        let (l, b) = pair.closest(ray, f32::INFINITY);
+        assert!(l.is_some(), "ray {k} misses");
+        assert_eq!(key(l), key(b), "ray {k}");
+        let query = |object| ShadowQuery {
+            t_min: T_MIN,
+            t_light: f32::MAX,
+            id_light: u32::MAX,
+            object,
+        };
+        assert!(bvh.occluded(scene, ray, query(u32::MAX), &mut s));
+        assert!(!bvh.occluded(scene, ray, query(object), &mut s));
+    }
+    for group in rays.chunks_exact(MAX_WIDTH) {
+        let rays: [Ray; MAX_WIDTH] = group.try_into().unwrap();
+        let p = RayPacket::<f32x8>::new(&rays, 0xff);
+        let hits = bvh.closest_hit_packet(scene, &p, T_MIN, &mut s).to_array();
+        for (k, ray) in rays.iter().enumerate() {
+            assert_eq!(key(hits[k]), key(pair.closest(ray, f32::INFINITY).1));
+        }
+        let shadow = ShadowLanes::<f32x8>::from_fn(T_MIN, object, |_| (f32::MAX, u32::MAX));
+        assert_eq!(bvh.occluded_packet(scene, &p, shadow, 0xff, &mut s), 0);
+    }
+    // Every node of the 4-wide tree was visited by the packets' shadow queries.
+    assert!(s.packet_nodes >= bvh.nodes.len() as u64);
 }

@@ -6,7 +6,7 @@ mod support;
 
 use glam::{Vec3, Vec4};
 use proptest::prelude::*;
-use raytracer::accel::packet::{RayPacket, MAX_WIDTH};
+use raytracer::accel::packet::{RayPacket, ShadowLanes, MAX_WIDTH};
 use raytracer::accel::{Accel, AccelKind, TraversalStats};
 use raytracer::geometry::{Hit, Ray};
 use raytracer::integrator::T_MIN;
@@ -390,20 +390,10 @@ fn check_packet<L: Lane>(rays: &[Ray; MAX_WIDTH], active: u32) -> Result<(), Tes
         _ => (rng.next_u64() % 5000) as u32,
     });
     let object = scene.lights[0].object;
-    let t_lanes = L::from_fn(|k| t_light[k]);
-    let occluded =
-        bvh.occluded_packet(scene, &p, T_MIN, t_lanes, &id_light, object, active, &mut s);
+    let query = ShadowLanes::<L>::from_fn(T_MIN, object, |k| (t_light[k], id_light[k]));
+    let occluded = bvh.occluded_packet(scene, &p, query, active, &mut s);
     for k in 0..L::WIDTH {
-        let want = active >> k & 1 != 0
-            && bvh.occluded(
-                scene,
-                &rays[k],
-                T_MIN,
-                t_light[k],
-                id_light[k],
-                object,
-                &mut s,
-            );
+        let want = active >> k & 1 != 0 && bvh.occluded(scene, &rays[k], query.lane(k), &mut s);
         prop_assert_eq!(occluded >> k & 1 != 0, want, "occluded lane {}", k);
     }
     Ok(())

@@ -291,7 +291,7 @@ impl QuadLeaks {
 /// answer bit for bit; the original program's planar test runs on the same rays against
 /// the quads of those objects (its leaks counted apart). `scene` holds the objects.
 fn quad_rays(scene: &Scene, groups: &[Vec<(Vec3, Vec3)>], objects: &[u32], leaks: &mut QuadLeaks) {
-    use raytracer::accel::packet::{RayPacket, MAX_WIDTH};
+    use raytracer::accel::packet::{RayPacket, ShadowLanes, MAX_WIDTH};
     use wide::f32x8;
     let mut bvh_scene = scene.clone();
     let bvh = Accel::build(&mut bvh_scene, AccelKind::Bvh);
@@ -342,16 +342,8 @@ fn quad_rays(scene: &Scene, groups: &[Vec<(Vec3, Vec3)>], objects: &[u32], leaks
         }
         // Shadow rays towards a light far beyond the target, of no object in the scene.
         let id_light = [u32::MAX; MAX_WIDTH];
-        let occluded = tree.occluded_packet(
-            &bvh_scene,
-            &p8,
-            T_MIN,
-            f32x8::splat(f32::MAX),
-            &id_light,
-            u32::MAX,
-            active,
-            &mut s,
-        );
+        let query = ShadowLanes::<f32x8>::from_fn(T_MIN, u32::MAX, |k| (f32::MAX, id_light[k]));
+        let occluded = tree.occluded_packet(&bvh_scene, &p8, query, active, &mut s);
         for (k, ray) in rays.iter().enumerate().take(group.len()) {
             leaks.rays += 1;
             let b = bvh.closest_hit(&bvh_scene, ray, T_MIN, f32::INFINITY, &mut s);
@@ -360,7 +352,7 @@ fn quad_rays(scene: &Scene, groups: &[Vec<(Vec3, Vec3)>], objects: &[u32], leaks
             leaks.linear += !good(&l, k) as u64;
             leaks.packet8 += !good(&hits8[k], k) as u64;
             leaks.packet4 += !good(&hits4[k], k) as u64;
-            let occ = tree.occluded(&bvh_scene, ray, T_MIN, f32::MAX, u32::MAX, u32::MAX, &mut s);
+            let occ = tree.occluded(&bvh_scene, ray, query.lane(k), &mut s);
             leaks.occluded += !occ as u64;
             leaks.occluded_packet += (occluded >> k & 1 == 0) as u64;
             let key = |h: &Option<Hit>| h.map(|h| (h.t.to_bits(), h.id));

@@ -77,6 +77,12 @@ const CHUNK: usize = 32 * 1024;
 /// Past this depth nodes are split at the median, which bounds the depth (and the
 /// traversal stack) even for pathological inputs.
 pub const MAX_SAH_DEPTH: u32 = 48;
+/// The most inner nodes on a path from the root to a leaf: `MAX_SAH_DEPTH` levels, then
+/// at most two splits by kind (the left side of one has a single kind) and the halvings
+/// that take fewer than 2^29 references to a leaf of `MAX_LEAF` (`stack` asserts the
+/// 27). A collapsed tree is no deeper (a wide node's child is at least one level down);
+/// `Bvh4::build` checks both.
+pub const MAX_DEPTH: usize = MAX_SAH_DEPTH as usize + 2 + 27;
 
 /// One primitive to place: its bounds, kind and index in its kind's pool.
 ///

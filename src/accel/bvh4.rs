@@ -9,7 +9,8 @@
 //! widths share them.
 
 use super::build::{self, BuildTree, NodeId, PrimRef};
-use super::TraversalStats;
+use super::stack::{TraversalStack, STACK4, STACK8};
+use super::{ShadowQuery, TraversalStats};
 use crate::geometry::quad::{OneQuad, QuadLanes};
 use crate::geometry::spawn::gamma;
 use crate::geometry::sphere::{sphere_distance, sphere_intersect_with, SpherePool, SphereRay};
@@ -42,14 +43,13 @@ pub(crate) trait Wide: Copy {
     /// Child `i`'s code (`i` < `WIDTH`).
     fn child(&self, i: usize) -> u32;
     /// Of the children in `mask` (at least one), push all but the nearest by their
-    /// entries `e` (positive) onto `stack` at `sp`, farthest first, with their entries,
-    /// and return the nearest's slot (`push_keys` on `nearest_first`'s keys).
-    fn push_farther(
+    /// entries `e` (positive) onto `stack`, farthest first, with their entries, and
+    /// return the nearest's slot (`push_keys` on `nearest_first`'s keys).
+    fn push_farther<const C: usize>(
         &self,
         mask: u32,
         e: &Self::Entries,
-        stack: &mut [MaybeUninit<(u32, f32)>],
-        sp: &mut usize,
+        stack: &mut TraversalStack<'_, (u32, f32), C>,
     ) -> usize;
 }
 
@@ -70,14 +70,13 @@ impl Wide for Node4 {
     }
 
     #[inline(always)]
-    fn push_farther(
+    fn push_farther<const C: usize>(
         &self,
         mask: u32,
         e: &[f32; 4],
-        stack: &mut [MaybeUninit<(u32, f32)>],
-        sp: &mut usize,
+        stack: &mut TraversalStack<'_, (u32, f32), C>,
     ) -> usize {
-        push_keys(nearest_first(mask, e), mask, &self.child, e, stack, sp)
+        push_keys(nearest_first(mask, e), mask, &self.child, e, stack)
     }
 }
 
@@ -226,10 +225,6 @@ pub const LINEAR_LIMIT: usize = 16;
 /// tree would test it anyway, and the nodes above it would be as large as the scene. At
 /// most `LINEAR_LIMIT` of them, and never all of the tree's primitives.
 pub const HUGE_FRACTION: f32 = 0.5;
-
-/// Deepest stack a traversal can need: three entries per level of a 4-wide tree whose
-/// depth is bounded by the binary build's.
-const STACK_SIZE: usize = 256;
 
 #[derive(Clone, Debug)]
 pub struct Bvh4 {
@@ -715,15 +710,20 @@ impl Bvh4 {
                     bvh.root = Some(bvh.collapse(tree, BuildTree::ROOT, position, 1));
                     // About 0.7 of the 4-wide node count (the closeup bunny: 622 and 450).
                     bvh.nodes8.reserve(bvh.nodes.len() * 3 / 4);
+                    let mut shape = Shape::default();
                     let root = collapse(
                         &mut bvh.nodes8,
                         tree,
                         BuildTree::ROOT,
                         position,
                         1,
-                        &mut Shape::default(),
+                        &mut shape,
                     );
                     bvh.root8 = Some(root);
+                    // The traversal stacks' capacity (`stack::capacity`) rests on it: a
+                    // leaf at depth d has d − 1 inner nodes above it.
+                    let depth = bvh.depth.max(shape.depth) as usize;
+                    assert!(depth <= build::MAX_DEPTH + 1, "BVH depth {depth}");
                 }
             },
         );
@@ -774,7 +774,7 @@ impl Bvh4 {
             // The box constants only for a tree (`mixed`, `spheres` and `quads` have
             // none: 1.3% of `mixed`'s scalar render made them for nothing, callgrind).
             let bray = BoxRay8::from_inv(ray, q);
-            traverse(
+            traverse::<_, STACK8>(
                 &self.nodes8,
                 scene,
                 root,
@@ -896,37 +896,24 @@ impl Bvh4 {
         stats: &mut TraversalStats,
     ) {
         let mut c = Closest::new(*t_max, best);
-        traverse(&self.nodes, scene, root, consts, bray, t_min, &mut c, stats);
+        traverse::<_, STACK4>(&self.nodes, scene, root, consts, bray, t_min, &mut c, stats);
         *t_max = c.t_max;
         if let Some(h) = c.hit(scene) {
             *best = Some(h);
         }
     }
 
-    /// Is there a hit of another object than `object` that beats `(t_light, id_light)`
-    /// in `[t_min, t_light]`? Stops at the first such occluder.
-    #[allow(clippy::too_many_arguments)]
+    /// Does a primitive occlude the light by `query`'s rule (`ShadowQuery`)? Stops at
+    /// the first occluder.
     pub fn occluded(
         &self,
         scene: &Scene,
         ray: &Ray,
-        t_min: f32,
-        t_light: f32,
-        id_light: u32,
-        object: u32,
+        query: ShadowQuery,
         stats: &mut TraversalStats,
     ) -> bool {
         let (mut consts, q) = RayConsts::with_reciprocals(ray);
-        self.occluded_consts(
-            scene,
-            &mut consts,
-            q,
-            t_min,
-            t_light,
-            id_light,
-            object,
-            stats,
-        )
+        self.occluded_consts(scene, &mut consts, q, query, stats)
     }
 
     /// The original program's shadow test (`Accel::light_visible`): the light's own
@@ -954,69 +941,46 @@ impl Bvh4 {
         let Some((t_light, id_light)) = own else {
             return false;
         };
-        !self.occluded_consts(
-            scene,
-            &mut consts,
-            q,
+        let query = ShadowQuery {
             t_min,
             t_light,
             id_light,
-            light.object,
-            stats,
-        )
+            object: light.object,
+        };
+        !self.occluded_consts(scene, &mut consts, q, query, stats)
     }
 
     /// `occluded` with the ray's constants and reciprocals `q` (`with_reciprocals`)
     /// made: beside the tree, then through the 8-wide tree (fewer nodes a ray than the
     /// 4-wide one, as for closest hits), whose box constants are made only then.
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn occluded_consts(
         &self,
         scene: &Scene,
         consts: &mut RayConsts<'_>,
         q: Vec4,
-        t_min: f32,
-        t_light: f32,
-        id_light: u32,
-        object: u32,
+        query: ShadowQuery,
         stats: &mut TraversalStats,
     ) -> bool {
-        if self.occluded_beside(scene, consts, t_min, t_light, id_light, object, stats) {
+        if self.occluded_beside(scene, consts, query, stats) {
             return true;
         }
         let Some(root) = self.root8 else { return false };
         let bray = BoxRay8::from_inv(consts.ray, q);
-        let light = (t_light, id_light, object);
-        occluded_in(
-            &self.nodes8,
-            scene,
-            root,
-            consts,
-            &bray,
-            t_min,
-            light,
-            stats,
-        )
+        occluded_in::<_, STACK8>(&self.nodes8, scene, root, consts, &bray, query, stats)
     }
 
-    /// `occluded` among the primitives beside the tree: the spheres four and the quads
-    /// eight at a time (the packed groups of `linear_kinds`), the triangles by the scan.
-    #[allow(clippy::too_many_arguments)]
+    /// `occluded` among the primitives beside the tree: the spheres and the quads eight
+    /// at a time (the packed groups of `linear_kinds`), the triangles by the scan.
     #[inline(always)]
     fn occluded_beside(
         &self,
         scene: &Scene,
         consts: &mut RayConsts<'_>,
-        t_min: f32,
-        t_light: f32,
-        id_light: u32,
-        object: u32,
+        query: ShadowQuery,
         stats: &mut TraversalStats,
     ) -> bool {
-        // A hit within [t_min, t_light] occludes unless it is the light's own object or
-        // loses the tie at t_light by its id.
-        let occludes = |t: f32, id: u32, o: u32| o != object && (t < t_light || id < id_light);
+        let ShadowQuery { t_min, t_light, .. } = query;
         let spheres = &self.linear[0];
         if !spheres.is_empty() {
             stats.prims += spheres.len() as u64;
@@ -1035,7 +999,9 @@ impl Bvh4 {
                 let first = spheres.start + SPHERE_GROUP * g;
                 let mask = hit.bits() & lanes.valid;
                 let t = t.to_array();
-                if set_lanes(mask).any(|k| occludes(t[k], s.id[first + k], s.object[first + k])) {
+                let occludes =
+                    |k: usize| query.occludes(t[k], s.id[first + k], s.object[first + k]);
+                if set_lanes(mask).any(occludes) {
                     return true;
                 }
             }
@@ -1047,9 +1013,9 @@ impl Bvh4 {
                 stats.prims += 1;
                 let ray = consts.ray;
                 let w = || *consts.triangle();
-                return q.object != object
+                return q.object != query.object
                     && q.intersect_lazy(ray, w, t_min, t_light)
-                        .is_some_and(|t| occludes(t, q.id, q.object));
+                        .is_some_and(|t| query.beats_light(t, q.id));
             }
             Beside::Pools => {}
         }
@@ -1061,13 +1027,15 @@ impl Bvh4 {
                 let w = || *consts.triangle();
                 if group.is_single() {
                     let hit = q.intersect_lazy(first, ray, w, t_min, t_light);
-                    if hit.is_some_and(|t| occludes(t, q.id[first], q.object[first])) {
+                    if hit.is_some_and(|t| query.occludes(t, q.id[first], q.object[first])) {
                         return true;
                     }
                     continue;
                 }
                 let (t, mask) = group.intersect(q, ray, w, t_min, t_light);
-                if set_lanes(mask).any(|k| occludes(t[k], q.id[first + k], q.object[first + k])) {
+                let occludes =
+                    |k: usize| query.occludes(t[k], q.id[first + k], q.object[first + k]);
+                if set_lanes(mask).any(occludes) {
                     return true;
                 }
             }
@@ -1075,11 +1043,8 @@ impl Bvh4 {
         let range = self.linear[2].clone();
         if !range.is_empty() {
             stats.prims += range.len() as u64;
-            let kind = PrimKind::Triangle;
             let mut cols = None;
-            if occludes_range(
-                scene, kind, range, consts, &mut cols, t_min, t_light, id_light, object,
-            ) {
+            if occludes_range(scene, PrimKind::Triangle, range, consts, &mut cols, query) {
                 return true;
             }
         }
@@ -1089,7 +1054,6 @@ impl Bvh4 {
     /// `occluded` in the subtree `root` (of the 4-wide tree) only: the packets' lanes
     /// that finish alone. Out of line: inlined into the shading loop with the packet
     /// traversal, it cost the 8-wide renders up to 1.4% more instructions (callgrind).
-    #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     pub(crate) fn occluded_from(
         &self,
@@ -1097,63 +1061,52 @@ impl Bvh4 {
         root: u32,
         consts: &mut RayConsts<'_>,
         bray: &BoxRay,
-        t_min: f32,
-        t_light: f32,
-        id_light: u32,
-        object: u32,
+        query: ShadowQuery,
         stats: &mut TraversalStats,
     ) -> bool {
-        let light = (t_light, id_light, object);
-        occluded_in(&self.nodes, scene, root, consts, bray, t_min, light, stats)
+        occluded_in::<_, STACK4>(&self.nodes, scene, root, consts, bray, query, stats)
     }
 }
 
-/// The scalar any-hit traversal of `tree` from `root`: is there a primitive of another
-/// object than the light's `object` that beats `(t_light, id_light)` in `[t_min,
-/// t_light]`? Of the children a node's box test hits, the leaves are tested there and
-/// the inner nodes pushed (no order: the first occluder ends the search), so a leaf
-/// costs no push and pop.
-#[allow(clippy::too_many_arguments)]
+/// The scalar any-hit traversal of `tree` from `root` (`ShadowQuery`). Of the children
+/// a node's box test hits, the leaves are tested there and the inner nodes pushed (no
+/// order: the first occluder ends the search), so a leaf costs no push and pop.
 #[inline(always)]
-fn occluded_in<N: Wide>(
+fn occluded_in<N: Wide, const C: usize>(
     tree: &[N],
     scene: &Scene,
     root: u32,
     consts: &mut RayConsts<'_>,
     bray: &N::Ray,
-    t_min: f32,
-    light: (f32, u32, u32),
+    query: ShadowQuery,
     stats: &mut TraversalStats,
 ) -> bool {
     // The triangle columns in this ray's axis order, at the first triangle leaf.
     let mut cols = None;
     if root & LEAF != 0 {
-        return leaf_occludes(scene, root, consts, &mut cols, t_min, light, stats);
+        return leaf_occludes(scene, root, consts, &mut cols, query, stats);
     }
-    let mut stack = [MaybeUninit::<u32>::uninit(); STACK_SIZE];
-    let mut sp = 0;
+    let mut slots = MaybeUninit::<[u32; C]>::uninit();
+    let mut stack = TraversalStack::new(&mut slots);
     let mut code = root;
     loop {
         stats.nodes += 1;
         let node = &tree[code as usize];
-        let (_, mut mask) = node.test(bray, t_min, light.0);
+        let (_, mut mask) = node.test(bray, query.t_min, query.t_light);
         while mask != 0 {
             let i = mask.trailing_zeros() as usize;
             mask &= mask - 1;
             let child = node.child(i);
             if child & LEAF == 0 {
-                stack[sp].write(child);
-                sp += 1;
-            } else if leaf_occludes(scene, child, consts, &mut cols, t_min, light, stats) {
+                stack.push(child);
+            } else if leaf_occludes(scene, child, consts, &mut cols, query, stats) {
                 return true;
             }
         }
-        if sp == 0 {
+        let Some(next) = stack.pop() else {
             return false;
-        }
-        sp -= 1;
-        // SAFETY: as in `traverse`, only written slots are read.
-        code = unsafe { stack[sp].assume_init() };
+        };
+        code = next;
     }
 }
 
@@ -1164,23 +1117,19 @@ fn leaf_occludes<'s>(
     code: u32,
     consts: &mut RayConsts<'_>,
     cols: &mut Option<Columns<'s>>,
-    t_min: f32,
-    (t_light, id_light, object): (f32, u32, u32),
+    query: ShadowQuery,
     stats: &mut TraversalStats,
 ) -> bool {
     let (kind, start, count) = decode_leaf(code);
     stats.prims += count as u64;
     let range = start as usize..(start + count) as usize;
-    occludes_range(
-        scene, kind, range, consts, cols, t_min, t_light, id_light, object,
-    )
+    occludes_range(scene, kind, range, consts, cols, query)
 }
 
-/// Does a primitive in `range` of another object than `object` beat `(t_light,
-/// id_light)` in `[t_min, t_light]`? Spheres and quads one at a time (a quad's plane
-/// first, `QuadPool::intersect_lazy`), triangles four at a time through the columns
-/// `cols` of the ray's axis order (looked up at the ray's first triangle leaf).
-#[allow(clippy::too_many_arguments)]
+/// Does a primitive in `range` occlude by `query`'s rule? Spheres and quads one at a
+/// time (a quad's plane first, `QuadPool::intersect_lazy`), triangles four at a time
+/// through the columns `cols` of the ray's axis order (looked up at the ray's first
+/// triangle leaf).
 #[inline(always)]
 fn occludes_range<'s>(
     scene: &'s Scene,
@@ -1188,12 +1137,14 @@ fn occludes_range<'s>(
     range: Range<usize>,
     consts: &mut RayConsts<'_>,
     cols: &mut Option<Columns<'s>>,
-    t_min: f32,
-    t_light: f32,
-    id_light: u32,
-    object: u32,
+    query: ShadowQuery,
 ) -> bool {
-    let beats = |t: f32, id: u32| t < t_light || id < id_light;
+    let ShadowQuery {
+        t_min,
+        t_light,
+        object,
+        ..
+    } = query;
     match kind {
         // Plain loops: as `Iterator::any` the quads' loop was left out of line, a call
         // per leaf (callgrind, the scalar `cornell` render).
@@ -1202,7 +1153,7 @@ fn occludes_range<'s>(
             for i in range {
                 if s.object[i] != object
                     && s.intersect(i, &consts.sphere, t_min, t_light)
-                        .is_some_and(|t| beats(t, s.id[i]))
+                        .is_some_and(|t| query.beats_light(t, s.id[i]))
                 {
                     return true;
                 }
@@ -1214,7 +1165,7 @@ fn occludes_range<'s>(
             for i in range {
                 if q.object[i] != object
                     && q.intersect_lazy(i, ray, || *consts.triangle(), t_min, t_light)
-                        .is_some_and(|t| beats(t, q.id[i]))
+                        .is_some_and(|t| query.beats_light(t, q.id[i]))
                 {
                     return true;
                 }
@@ -1233,7 +1184,7 @@ fn occludes_range<'s>(
                     let k = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     let i = start + k;
-                    if tri.object[i] != object && beats(t[k], tri.id[i]) {
+                    if query.occludes(t[k], tri.id[i], tri.object[i]) {
                         return true;
                     }
                 }
@@ -1249,7 +1200,7 @@ fn occludes_range<'s>(
 /// are pushed (farthest first), so a node with one hit child costs no push or pop.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn traverse<N: Wide>(
+fn traverse<N: Wide, const C: usize>(
     tree: &[N],
     scene: &Scene,
     root: u32,
@@ -1263,11 +1214,8 @@ fn traverse<N: Wide>(
     if t_min > c.t_max {
         return;
     }
-    // Not zero-initialised: clearing 2 KiB per ray cost ~20% of the camera-ray rate on
-    // `bunny` (perf, benches/bvh.rs). Only slots below `sp` are read, and each was
-    // written before `sp` passed it.
-    let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); STACK_SIZE];
-    let mut sp = 0;
+    let mut slots = MaybeUninit::<[(u32, f32); C]>::uninit();
+    let mut stack = TraversalStack::new(&mut slots);
     let (mut nodes, mut prims) = (0u64, 0u64);
     let mut code = root;
     // The triangle columns in this ray's axis order, at the first triangle leaf.
@@ -1297,14 +1245,13 @@ fn traverse<N: Wide>(
                     let swap = e[j] < e[i];
                     let (near, far) = if swap { (cj, ci) } else { (ci, cj) };
                     let far_e = if swap { e[i] } else { e[j] };
-                    stack[sp].write((far, far_e));
-                    sp += 1;
+                    stack.push((far, far_e));
                     code = near;
                     continue 'visit;
                 }
                 // Three or more: sort nearest first (branch-free: `nearest_first`,
                 // `nearest_first8`), push all but the nearest (farthest first).
-                code = node.child(node.push_farther(mask, &entry, &mut stack, &mut sp));
+                code = node.child(node.push_farther(mask, &entry, &mut stack));
                 continue 'visit;
             }
         } else {
@@ -1320,19 +1267,13 @@ fn traverse<N: Wide>(
             }
         }
         // Pop the next node still nearer than the best hit.
-        loop {
-            if sp == 0 {
-                break 'visit;
+        while let Some((next, enter)) = stack.pop() {
+            if enter <= c.t_max {
+                code = next;
+                continue 'visit;
             }
-            sp -= 1;
-            // SAFETY: slot `sp` < the highest `sp` reached, all of which were written.
-            let (next, enter) = unsafe { stack[sp].assume_init() };
-            if enter > c.t_max {
-                continue;
-            }
-            code = next;
-            continue 'visit;
         }
+        break;
     }
     stats.nodes += nodes;
     stats.prims += prims;
@@ -1403,19 +1344,17 @@ fn collapse<const W: usize>(
 /// the children in `mask` nearest first (the slot in the low bits, `key & (W − 1)`;
 /// `nearest_first`, `node8::nearest_first8`).
 #[inline(always)]
-pub(crate) fn push_keys<const W: usize>(
+pub(crate) fn push_keys<const W: usize, const C: usize>(
     keys: [u32; W],
     mask: u32,
     child: &[u32; W],
     e: &[f32; W],
-    stack: &mut [MaybeUninit<(u32, f32)>],
-    sp: &mut usize,
+    stack: &mut TraversalStack<'_, (u32, f32), C>,
 ) -> usize {
     let k = mask.count_ones() as usize;
     for &key in keys[1..k].iter().rev() {
         let s = key as usize & (W - 1);
-        stack[*sp].write((child[s], e[s]));
-        *sp += 1;
+        stack.push((child[s], e[s]));
     }
     keys[0] as usize & (W - 1)
 }

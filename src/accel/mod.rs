@@ -14,6 +14,7 @@ pub mod cull;
 pub mod linear;
 pub mod packet;
 pub mod shadow;
+mod stack;
 
 use crate::geometry::{Hit, Ray};
 use crate::lanes::{set_lanes, Lane};
@@ -55,6 +56,35 @@ impl AccelKind {
             AccelKind::Linear => "linear",
             AccelKind::Bvh => "bvh",
         }
+    }
+}
+
+/// What a shadow ray asks, by the original program's rule (lit when the nearest hit is the
+/// light's): is there a primitive of another object than the light's `object` in
+/// `[t_min, t_light]` that beats the light's own nearest hit `(t_light, id_light)` by the
+/// `(t, id)` rule? Every any-hit traversal answers it: one ray's (`Bvh4::occluded`), and
+/// a packet's lanes (`packet::ShadowLanes`, whose `lane` is this for one lane).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadowQuery {
+    pub t_min: f32,
+    pub t_light: f32,
+    pub id_light: u32,
+    pub object: u32,
+}
+
+impl ShadowQuery {
+    /// Does a hit at `t` (within `[t_min, t_light]`) of primitive `id`, of `object`,
+    /// occlude the light?
+    #[inline(always)]
+    pub fn occludes(&self, t: f32, id: u32, object: u32) -> bool {
+        object != self.object && self.beats_light(t, id)
+    }
+
+    /// Does a hit at `t` (within `[t_min, t_light]`) of primitive `id` beat the light's
+    /// own, nearer or as near with a smaller id?
+    #[inline(always)]
+    pub fn beats_light(&self, t: f32, id: u32) -> bool {
+        t < self.t_light || id < self.id_light
     }
 }
 

@@ -15,7 +15,8 @@ use super::bvh4::{
 };
 use super::cull::Cull;
 use super::shadow::Candidates;
-use super::TraversalStats;
+use super::stack::{TraversalStack, STACK4, STACK8};
+use super::{ShadowQuery, TraversalStats};
 use crate::geometry::quad::Quad;
 use crate::geometry::quad::{inside_quad, outer_edge_is_zero, plane_distance, quad_edge_functions};
 use crate::geometry::sphere::sphere_distance;
@@ -30,8 +31,6 @@ use wide::f32x8;
 
 /// The widest packet.
 pub const MAX_WIDTH: usize = 8;
-
-const STACK_SIZE: usize = 256;
 
 /// A packet of rays with the per-lane constants of the box and sphere tests, computed
 /// lane-wise with the scalar constructors' operations (`BoxRay::new`, `SphereRay::new`),
@@ -652,16 +651,42 @@ fn ids(scene: &Scene, kind: PrimKind, i: usize) -> (u32, u32) {
     }
 }
 
-/// What the lanes of a shadow packet look for: per lane the light object's own nearest
-/// hit `(t, id)` (the id in an f32's bits), the object, and the kind of its primitives
-/// when it is a light (an object is one sphere, quads or triangles; `None`: any kind
-/// may be the object's).
-#[derive(Clone, Copy)]
-struct ShadowTarget<L> {
-    t: L,
-    id: L,
+/// `ShadowQuery` in lanes: per lane the light object's own nearest hit `(t_light,
+/// id_light)` (the id in an f32's bits), the object, and the kind of its primitives when
+/// it is a light (an object is one sphere, quads or triangles; `None`: any kind may be
+/// the object's).
+#[derive(Clone, Copy, Debug)]
+pub struct ShadowLanes<L> {
+    t_min: f32,
+    t_light: L,
+    id_light: L,
     object: u32,
     kind: Option<PrimKind>,
+}
+
+impl<L: Lane> ShadowLanes<L> {
+    /// Lane `k` asks `query(k)`, of the same `t_min` and `object`.
+    #[inline(always)]
+    pub fn from_fn(t_min: f32, object: u32, query: impl Fn(usize) -> (f32, u32)) -> Self {
+        ShadowLanes {
+            t_min,
+            t_light: L::from_fn(|k| query(k).0),
+            id_light: L::from_fn(|k| f32::from_bits(query(k).1)),
+            object,
+            kind: None,
+        }
+    }
+
+    /// Lane `k`'s question.
+    #[inline(always)]
+    pub fn lane(&self, k: usize) -> ShadowQuery {
+        ShadowQuery {
+            t_min: self.t_min,
+            t_light: self.t_light.lane(k),
+            id_light: self.id_light.lane(k).to_bits(),
+            object: self.object,
+        }
+    }
 }
 
 /// The lanes of `lanes` for which a primitive of `range` (of `kind`) occludes `light`
@@ -675,21 +700,18 @@ struct ShadowTarget<L> {
 fn occluders<L: Lane>(
     scene: &Scene,
     p: &RayPacket<L>,
-    light: ShadowTarget<L>,
+    light: ShadowLanes<L>,
     kind: PrimKind,
     range: std::ops::Range<usize>,
-    t_min: f32,
     lanes: u32,
     t_max: L,
     tris: &mut LazyTriangles<'_, L>,
 ) -> u32 {
     let (s, r, l) = (scene, range, lanes);
     match kind {
-        PrimKind::Sphere => occluders_of(s, p, light, PrimKind::Sphere, r, t_min, l, t_max, tris),
-        PrimKind::Quad => occluders_of(s, p, light, PrimKind::Quad, r, t_min, l, t_max, tris),
-        PrimKind::Triangle => {
-            occluders_of(s, p, light, PrimKind::Triangle, r, t_min, l, t_max, tris)
-        }
+        PrimKind::Sphere => occluders_of(s, p, light, PrimKind::Sphere, r, l, t_max, tris),
+        PrimKind::Quad => occluders_of(s, p, light, PrimKind::Quad, r, l, t_max, tris),
+        PrimKind::Triangle => occluders_of(s, p, light, PrimKind::Triangle, r, l, t_max, tris),
     }
 }
 
@@ -699,19 +721,19 @@ fn occluders<L: Lane>(
 fn occluders_of<L: Lane>(
     scene: &Scene,
     p: &RayPacket<L>,
-    light: ShadowTarget<L>,
+    light: ShadowLanes<L>,
     kind: PrimKind,
     range: std::ops::Range<usize>,
-    t_min: f32,
     lanes: u32,
     t_max: L,
     tris: &mut LazyTriangles<'_, L>,
 ) -> u32 {
     let mut found = 0;
+    let t_min = light.t_min;
     // Primitives of the object's own kind are skipped before their test (the light's
     // quads are dear to test); the others cannot be the object's, and their ids are
     // looked up only when some lane hits them.
-    let (t_light, object) = (light.t, light.object);
+    let (t_light, object) = (light.t_light, light.object);
     let check_first = light.kind.is_none_or(|k| k == kind);
     for i in range {
         if check_first && ids(scene, kind, i).1 == object {
@@ -728,7 +750,7 @@ fn occluders_of<L: Lane>(
         // `beats` lane-wise: nearer than the light, or as near with a smaller id.
         found |= t.lt(t_light).bits() & bits;
         for k in set_lanes(t.eq(t_light).bits() & bits) {
-            if id < light.id.lane(k).to_bits() {
+            if id < light.id_light.lane(k).to_bits() {
                 found |= 1 << k;
             }
         }
@@ -743,21 +765,19 @@ fn occluders_of<L: Lane>(
 /// (`Bvh4::occluded_lanes` over the shadow candidates only, without the tree). A quad's
 /// box is tested before its edges, as a leaf's box is in the tree (and as safely: the
 /// slab test's scaled reciprocals keep every lane the quad test accepts).
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn occluded_among<L: Lane>(
     scene: &Scene,
     p: &RayPacket<L>,
-    t_min: f32,
-    light: ShadowTarget<L>,
+    light: ShadowLanes<L>,
     lanes: u32,
     among: Candidates<'_>,
     tris: &mut LazyTriangles<'_, L>,
     stats: &mut TraversalStats,
 ) -> u32 {
     let mut remaining = lanes & p.active;
-    let t_max = in_play(remaining, light.t);
-    let t_min_l = L::splat(t_min);
+    let t_max = in_play(remaining, light.t_light);
+    let t_min_l = L::splat(light.t_min);
     for (kind, range) in among.runs() {
         if kind == PrimKind::Quad {
             for i in range {
@@ -768,8 +788,7 @@ fn occluded_among<L: Lane>(
                 }
                 stats.prims += inside.count_ones() as u64;
                 let quad = PrimKind::Quad;
-                remaining &=
-                    !occluders(scene, p, light, quad, i..i + 1, t_min, inside, t_max, tris);
+                remaining &= !occluders(scene, p, light, quad, i..i + 1, inside, t_max, tris);
                 if remaining == 0 {
                     return lanes & p.active;
                 }
@@ -777,7 +796,7 @@ fn occluded_among<L: Lane>(
             continue;
         }
         stats.prims += (range.len() * remaining.count_ones() as usize) as u64;
-        remaining &= !occluders(scene, p, light, kind, range, t_min, remaining, t_max, tris);
+        remaining &= !occluders(scene, p, light, kind, range, remaining, t_max, tris);
         if remaining == 0 {
             break;
         }
@@ -1163,8 +1182,8 @@ impl Bvh4 {
             return st;
         }
         let fallback = RayPacket::<L>::fallback();
-        let mut stack = [MaybeUninit::<(u32, u32, f32)>::uninit(); STACK_SIZE];
-        let mut sp = 0;
+        let mut slots = MaybeUninit::<[_; STACK4]>::uninit();
+        let mut stack = TraversalStack::new(&mut slots);
         // The node being visited and its lanes. The nearest child a node's lanes enter
         // is visited next without a trip through the stack (most nodes of a coherent
         // packet have one); the others are pushed, farthest first.
@@ -1241,8 +1260,7 @@ impl Bvh4 {
                 }
                 if n > 0 {
                     for h in &hits[..n - 1] {
-                        stack[sp].write(*h);
-                        sp += 1;
+                        stack.push(*h);
                     }
                     let (child, bits, d) = hits[n - 1];
                     code = child;
@@ -1257,12 +1275,9 @@ impl Bvh4 {
             }
             // Pop the next subtree. Lanes whose closest hit is already nearer than the
             // box's entry (the smallest over the lanes that entered it) leave it.
-            if sp == 0 {
+            let Some((next, next_lanes, enter)) = stack.pop() else {
                 break;
-            }
-            sp -= 1;
-            // SAFETY: slot `sp` < the highest `sp` reached, all of which were written.
-            let (next, next_lanes, enter) = unsafe { stack[sp].assume_init() };
+            };
             code = next;
             lanes = st.t.ge(L::splat(enter)).bits() & next_lanes;
         }
@@ -1292,8 +1307,8 @@ impl Bvh4 {
         // The farthest closest hit of the lanes (+∞ while one has none).
         let far = |st: &PacketHits<L>| in_play(lanes, st.t).reduce_max();
         let mut t_far = far(st);
-        let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); STACK_SIZE];
-        let mut sp = 0;
+        let mut slots = MaybeUninit::<[_; STACK8]>::uninit();
+        let mut stack = TraversalStack::new(&mut slots);
         let (mut code, mut enter) = (root, t_min);
         'visit: loop {
             if code & LEAF != 0 {
@@ -1314,58 +1329,41 @@ impl Bvh4 {
                 if mask != 0 {
                     // As the scalar traversal orders them (the bounds are at least
                     // t_min, so positive).
-                    let s = node.push_farther(mask, &entry, &mut stack, &mut sp);
+                    let s = node.push_farther(mask, &entry, &mut stack);
                     (code, enter) = (node.child(s), entry[s & 7]);
                     continue 'visit;
                 }
             }
             // Pop the next subtree some lane may still find something nearer in.
-            loop {
-                if sp == 0 {
-                    return;
-                }
-                sp -= 1;
-                // SAFETY: slot `sp` < the highest `sp` reached, all of which were written.
-                let (next, e) = unsafe { stack[sp].assume_init() };
+            while let Some((next, e)) = stack.pop() {
                 if e <= t_far {
                     (code, enter) = (next, e);
                     continue 'visit;
                 }
             }
+            return;
         }
     }
 
-    /// Shadow rays: the lanes of `lanes` for which a primitive of another object than
-    /// `object` beats `(t_light[k], id_light[k])` in `[t_min, t_light[k]]`, exactly as
-    /// `occluded` answers for each lane's ray.
-    #[allow(clippy::too_many_arguments)]
+    /// Shadow rays: the lanes of `lanes` that `light` (lane `k` asking `light.lane(k)`)
+    /// finds occluded, exactly as `occluded` answers for each lane's ray.
     pub fn occluded_packet<L: Lane>(
         &self,
         scene: &Scene,
         p: &RayPacket<L>,
-        t_min: f32,
-        t_light: L,
-        id_light: &[u32; MAX_WIDTH],
-        object: u32,
+        mut light: ShadowLanes<L>,
         lanes: u32,
         stats: &mut TraversalStats,
     ) -> u32 {
         // The kind of the object's primitives when it is a light (an object is one
         // sphere, quads or triangles); `None`: any kind may be the object's.
-        let object_kind = scene
+        light.kind = scene
             .lights
             .iter()
-            .find(|l| l.object == object)
+            .find(|l| l.object == light.object)
             .map(|l| light_kind(&l.shape));
-        let id_light = L::from_fn(|k| f32::from_bits(id_light[k]));
         let mut tris = LazyTriangles::new(p, scene);
-        let light = ShadowTarget {
-            t: t_light,
-            id: id_light,
-            object,
-            kind: object_kind,
-        };
-        self.occluded_lanes(scene, p, t_min, light, lanes, &mut tris, stats)
+        self.occluded_lanes(scene, p, light, lanes, &mut tris, stats)
     }
 
     /// `Accel::light_visible` for the active lanes of `p` in `lanes`: the mask of those
@@ -1414,28 +1412,27 @@ impl Bvh4 {
         if reach == 0 {
             return 0;
         }
-        let own = ShadowTarget {
-            t: t_light,
-            id: id_light,
+        let own = ShadowLanes {
+            t_min,
+            t_light,
+            id_light,
             object: light.object,
             kind: Some(light_kind(&light.shape)),
         };
         let occluded = match among {
-            Some(c) => occluded_among(scene, p, t_min, own, reach, c, &mut tris, stats),
-            None => self.occluded_lanes(scene, p, t_min, own, reach, &mut tris, stats),
+            Some(c) => occluded_among(scene, p, own, reach, c, &mut tris, stats),
+            None => self.occluded_lanes(scene, p, own, reach, &mut tris, stats),
         };
         reach & !occluded
     }
 
     /// `occluded_packet` with the light as lanes.
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn occluded_lanes<L: Lane>(
         &self,
         scene: &Scene,
         p: &RayPacket<L>,
-        t_min: f32,
-        light: ShadowTarget<L>,
+        light: ShadowLanes<L>,
         lanes: u32,
         tris: &mut LazyTriangles<'_, L>,
         stats: &mut TraversalStats,
@@ -1443,12 +1440,13 @@ impl Bvh4 {
         let mut remaining = lanes & p.active;
         let mut occluded = 0u32;
         // Lanes not tested get t_max = −∞ (no box or primitive test passes).
-        let mut t_max = in_play(remaining, light.t);
+        let t_min = light.t_min;
+        let mut t_max = in_play(remaining, light.t_light);
         for (k, &kind) in PrimKind::ALL.iter().enumerate() {
             let range = self.linear[k].clone();
             if !range.is_empty() && remaining != 0 {
                 stats.prims += (range.len() * remaining.count_ones() as usize) as u64;
-                let found = occluders(scene, p, light, kind, range, t_min, remaining, t_max, tris);
+                let found = occluders(scene, p, light, kind, range, remaining, t_max, tris);
                 occluded |= found;
                 remaining &= !found;
             }
@@ -1469,13 +1467,13 @@ impl Bvh4 {
             return occluded;
         }
         let fallback = RayPacket::<L>::fallback();
-        let mut stack = [MaybeUninit::<(u32, u32)>::uninit(); STACK_SIZE];
-        stack[0].write((root, entered));
-        let mut sp = 1;
-        while sp > 0 && remaining != 0 {
-            sp -= 1;
-            // SAFETY: as in `closest_hit_packet`.
-            let (code, lanes) = unsafe { stack[sp].assume_init() };
+        let mut slots = MaybeUninit::<[_; STACK4]>::uninit();
+        let mut stack = TraversalStack::new(&mut slots);
+        stack.push((root, entered));
+        while remaining != 0 {
+            let Some((code, lanes)) = stack.pop() else {
+                break;
+            };
             let lanes = lanes & remaining;
             if lanes == 0 {
                 continue;
@@ -1485,7 +1483,7 @@ impl Bvh4 {
                 let (kind, start, count) = decode_leaf(code);
                 stats.prims += (count * lanes.count_ones()) as u64;
                 let range = start as usize..(start + count) as usize;
-                found = occluders_of(scene, p, light, kind, range, t_min, lanes, t_max, tris);
+                found = occluders_of(scene, p, light, kind, range, lanes, t_max, tris);
             } else {
                 stats.nodes += 1;
                 stats.packet_nodes += 1;
@@ -1511,17 +1509,8 @@ impl Bvh4 {
                         for k in set_lanes(bits) {
                             let ray = p.ray(k);
                             let (mut consts, bray) = RayConsts::with_box4(&ray);
-                            if self.occluded_from(
-                                scene,
-                                child,
-                                &mut consts,
-                                &bray,
-                                t_min,
-                                light.t.lane(k),
-                                light.id.lane(k).to_bits(),
-                                light.object,
-                                stats,
-                            ) {
+                            let query = light.lane(k);
+                            if self.occluded_from(scene, child, &mut consts, &bray, query, stats) {
                                 found |= 1 << k;
                             }
                         }
@@ -1532,12 +1521,10 @@ impl Bvh4 {
                         let (kind, start, count) = decode_leaf(child);
                         stats.prims += (count * bits.count_ones()) as u64;
                         let range = start as usize..(start + count) as usize;
-                        found |=
-                            occluders_of(scene, p, light, kind, range, t_min, bits, t_max_l, tris);
+                        found |= occluders_of(scene, p, light, kind, range, bits, t_max_l, tris);
                         continue;
                     }
-                    stack[sp].write((child, bits));
-                    sp += 1;
+                    stack.push((child, bits));
                 }
             }
             if found != 0 {

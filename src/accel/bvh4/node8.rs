@@ -7,10 +7,10 @@
 //! nodes, whose lanes are the rays, not the children. `Node8` itself is `bvh4::Node<8>`.
 
 use super::{plane_rows, push_keys, slab, Node8, Wide, FAR_SCALE, NEAR_SCALE};
+use crate::accel::stack::TraversalStack;
 use crate::geometry::Ray;
 use crate::lanes::Mask;
 use glam::Vec4;
-use std::mem::MaybeUninit;
 use wide::{f32x8, i32x8, CmpEq};
 
 /// `BoxRay` in eight lanes: one ray against a node's eight children.
@@ -90,14 +90,13 @@ impl Wide for Node8 {
     }
 
     #[inline(always)]
-    fn push_farther(
+    fn push_farther<const C: usize>(
         &self,
         mask: u32,
         e: &[f32; 8],
-        stack: &mut [MaybeUninit<(u32, f32)>],
-        sp: &mut usize,
+        stack: &mut TraversalStack<'_, (u32, f32), C>,
     ) -> usize {
-        push_keys(nearest_first8(mask, e), mask, &self.child, e, stack, sp)
+        push_keys(nearest_first8(mask, e), mask, &self.child, e, stack)
     }
 }
 
