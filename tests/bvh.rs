@@ -410,7 +410,7 @@ fn leaves_under<N>(
     children: &dyn Fn(&N) -> &[u32],
     out: &mut Vec<u32>,
 ) {
-    use raytracer::accel::bvh4::{EMPTY, LEAF};
+    use raytracer::accel::bvh::{EMPTY, LEAF};
     if code & LEAF != 0 {
         out.push(code);
         return;

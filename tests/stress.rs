@@ -267,7 +267,7 @@ struct QuadLeaks {
     linear: u64,
     packet8: u64,
     packet4: u64,
-    /// Any-hit (shadow rays, `Bvh4::occluded` and `occluded_packet` 8 wide): not occluded.
+    /// Any-hit (shadow rays, `Bvh::occluded` and `occluded_packet` 8 wide): not occluded.
     occluded: u64,
     occluded_packet: u64,
     /// Answers that differ from the scalar BVH's, bit for bit: the linear scan's and the

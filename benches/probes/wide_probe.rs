@@ -1,5 +1,5 @@
 //! How many node visits would wider nodes save? Builds the binary SAH tree of a scene's
-//! triangles as `Bvh4::build` does, collapses it to 2-, 4- and 8-wide nodes the same way
+//! triangles as `Bvh::build` does, collapses it to 2-, 4- and 8-wide nodes the same way
 //! (opening the child of largest area), and traces the scene's camera rays (the order of
 //! `benches/bvh.rs`) front to back through each, culling with the best t so far. A plain
 //! model, not the renderer's traversal (f32 slabs with a small margin; the renderer's

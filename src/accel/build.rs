@@ -81,7 +81,7 @@ pub const MAX_SAH_DEPTH: u32 = 48;
 /// at most two splits by kind (the left side of one has a single kind) and the halvings
 /// that take fewer than 2^29 references to a leaf of `MAX_LEAF` (`stack` asserts the
 /// 27). A collapsed tree is no deeper (a wide node's child is at least one level down);
-/// `Bvh4::build` checks both.
+/// `Bvh::build` checks both.
 pub const MAX_DEPTH: usize = MAX_SAH_DEPTH as usize + 2 + 27;
 
 /// One primitive to place: its bounds, kind and index in its kind's pool.

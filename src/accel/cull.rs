@@ -13,7 +13,7 @@ use crate::scene::Scene;
 use glam::DVec3;
 
 /// What a bundle of rays may hit: bit i of `beside[k]` is the i-th primitive of kind k
-/// beside the tree (`Bvh4::linear[k]`; those past the 32nd are always tested), and
+/// beside the tree (`Bvh::linear[k]`; those past the 32nd are always tested), and
 /// `tree` the tree.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Cull {

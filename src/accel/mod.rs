@@ -2,14 +2,14 @@
 //!
 //! - `linear`: the original program's algorithm: every sphere and quad, every triangle of
 //!   a mesh whose bounding box is hit. Kept so the BVH's gain is measurable in one run.
-//! - `bvh4`: a binned-SAH BVH (`build`) collapsed to 4-wide nodes (packets) and 8-wide
+//! - `bvh`: a binned-SAH BVH (`build`) collapsed to 4-wide nodes (packets) and 8-wide
 //!   nodes (single rays: closest hits and shadow rays); the default.
 //!
 //! Both answer the same two questions with the same bits: the closest hit by the
 //! `(t, primitive id)` rule, and whether a shadow ray reaches a given light.
 
 pub mod build;
-pub mod bvh4;
+pub mod bvh;
 pub mod cull;
 pub mod linear;
 pub mod packet;
@@ -19,7 +19,7 @@ mod stack;
 use crate::geometry::{Hit, Ray};
 use crate::lanes::{set_lanes, Lane};
 use crate::scene::{Light, Scene};
-use bvh4::Bvh4;
+use bvh::Bvh;
 use linear::LinearScan;
 use packet::{PacketHits, RayPacket};
 use shadow::Candidates;
@@ -62,7 +62,7 @@ impl AccelKind {
 /// What a shadow ray asks, by the original program's rule (lit when the nearest hit is the
 /// light's): is there a primitive of another object than the light's `object` in
 /// `[t_min, t_light]` that beats the light's own nearest hit `(t_light, id_light)` by the
-/// `(t, id)` rule? Every any-hit traversal answers it: one ray's (`Bvh4::occluded`), and
+/// `(t, id)` rule? Every any-hit traversal answers it: one ray's (`Bvh::occluded`), and
 /// a packet's lanes (`packet::ShadowLanes`, whose `lane` is this for one lane).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShadowQuery {
@@ -118,7 +118,7 @@ impl TraversalStats {
 #[derive(Clone, Debug)]
 pub enum Accel {
     Linear(LinearScan),
-    Bvh(Bvh4),
+    Bvh(Bvh),
 }
 
 impl Accel {
@@ -127,7 +127,7 @@ impl Accel {
     pub fn build(scene: &mut Scene, kind: AccelKind) -> Accel {
         match kind {
             AccelKind::Linear => Accel::Linear(LinearScan::build(scene)),
-            AccelKind::Bvh => Accel::Bvh(Bvh4::build(scene)),
+            AccelKind::Bvh => Accel::Bvh(Bvh::build(scene)),
         }
     }
 

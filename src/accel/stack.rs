@@ -2,13 +2,13 @@
 //! keeps beside them (an entry distance, a packet's lanes).
 
 use super::build::{MAX_DEPTH, MAX_LEAF};
-use super::bvh4::MAX_POOL_FOR_BVH;
+use super::bvh::MAX_POOL_FOR_BVH;
 use std::mem::MaybeUninit;
 
 /// The entries a traversal of `W`-wide nodes can hold at once: it pops a node and pushes
 /// at most all its children, or visits one child next and pushes the others, so the
 /// stack holds at most all but one child of each inner node on the path to the node
-/// being visited, plus one: (W − 1) · `MAX_DEPTH` + 1. `Bvh4::build` checks both
+/// being visited, plus one: (W − 1) · `MAX_DEPTH` + 1. `Bvh::build` checks both
 /// collapsed trees' depth against `MAX_DEPTH`, and `tests/bvh.rs` runs every traversal
 /// on a tree as deep as the build allows. Two sizes, not the widest for all: a frame past
 /// 4 KiB takes a stack probe at every call.

@@ -4,9 +4,9 @@
 //! does. A single ray's traversal is one chain of dependent steps (load a node, test its
 //! boxes, pick the nearest child, load it), so fewer levels is a shorter chain. Camera
 //! packets' frustums descend them too (`packet::Frustum`); other packets keep the 4-wide
-//! nodes, whose lanes are the rays, not the children. `Node8` itself is `bvh4::Node<8>`.
+//! nodes, whose lanes are the rays, not the children. `Node8` itself is `bvh::Node<8>`.
 
-use super::{plane_rows, push_keys, slab, Node8, Wide, FAR_SCALE, NEAR_SCALE};
+use super::node::{plane_rows, push_keys, slab, Node8, Wide, FAR_SCALE, NEAR_SCALE};
 use crate::accel::stack::TraversalStack;
 use crate::geometry::Ray;
 use crate::lanes::Mask;

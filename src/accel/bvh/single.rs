@@ -1,0 +1,724 @@
+//! One ray through the BVH: the closest hit and the shadow rays' any-hit query
+//! (`ShadowQuery`) over the 8-wide nodes, the primitives beside the tree, and the lanes a
+//! packet finishes alone over the 4-wide nodes (`closest_hit_from`, `occluded_from`).
+
+use super::node::{decode_leaf, BoxRay, Wide, LEAF};
+use super::node8::BoxRay8;
+use super::{Beside, Bvh, SPHERE_GROUP};
+use crate::accel::stack::{TraversalStack, STACK4, STACK8};
+use crate::accel::{ShadowQuery, TraversalStats};
+use crate::geometry::sphere::{sphere_intersect_with, SphereRay};
+use crate::geometry::triangle::{Columns, WatertightRay};
+use crate::geometry::{beats, Hit, PrimKind, Ray};
+use crate::lanes::set_lanes;
+use crate::scene::{Light, LightShape, Scene};
+use glam::Vec4;
+use std::mem::MaybeUninit;
+use std::ops::Range;
+
+/// The per-ray constants of a scalar traversal: `PrimRay`'s and `BoxRay`'s values (the
+/// same IEEE quotients, so the same bits), with the triangle test's computed at the first
+/// triangle leaf: most camera rays of `bunny` miss the mesh's box, and the axis choice,
+/// its two divisions and the pool pointers they select cost ~100 instructions a ray
+/// (callgrind). 1/dx, 1/dy, 1/dz and 1/(d·d) are one vector divide. Shadow rays
+/// (`Bvh::light_visible`) share them between the light's own hit and the occluders.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RayConsts<'r> {
+    /// Borrowed, not copied: a copy was stored in pieces and read back whole, a failed
+    /// store-to-load forward on every ray (perf: 11% of the `bunny` camera-ray time).
+    ray: &'r Ray,
+    sphere: SphereRay,
+    triangle: Option<WatertightRay>,
+}
+
+impl<'r> RayConsts<'r> {
+    /// The constants, and the box test's for the 4-wide tree (which the lanes a packet
+    /// finishes alone traverse).
+    #[inline(always)]
+    pub(crate) fn with_box4(ray: &'r Ray) -> (RayConsts<'r>, BoxRay) {
+        let (consts, q) = Self::with_reciprocals(ray);
+        (consts, BoxRay::from_inv(ray, q.truncate()))
+    }
+
+    /// The constants and (1/dx, 1/dy, 1/dz, 1/(d·d)).
+    #[inline(always)]
+    fn with_reciprocals(ray: &'r Ray) -> (RayConsts<'r>, Vec4) {
+        let d = ray.dir;
+        let a = d.dot(d);
+        let q = Vec4::ONE / Vec4::new(d.x, d.y, d.z, a);
+        let sphere = SphereRay {
+            origin: ray.origin,
+            dir: d,
+            a,
+            inv_a: q.w,
+        };
+        let consts = RayConsts {
+            ray,
+            sphere,
+            triangle: None,
+        };
+        (consts, q)
+    }
+
+    #[inline(always)]
+    fn triangle(&mut self) -> &WatertightRay {
+        let ray = self.ray;
+        self.triangle.get_or_insert_with(|| watertight_ray(ray))
+    }
+}
+
+/// `WatertightRay::new` with its three divisions in one vector divide.
+#[inline(never)]
+fn watertight_ray(ray: &Ray) -> WatertightRay {
+    let axes @ [kx, ky, kz] = WatertightRay::axes(ray.dir);
+    let d = ray.dir.to_array();
+    let o = ray.origin.to_array();
+    let q = Vec4::new(d[kx], d[ky], 1.0, 1.0) / Vec4::new(d[kz], d[kz], d[kz], 1.0);
+    WatertightRay {
+        axes,
+        origin: [o[kx], o[ky], o[kz]],
+        sx: q.x,
+        sy: q.y,
+        sz: q.z,
+    }
+}
+
+/// The closest hit so far of one scalar traversal, in plain fields (no `Option<Hit>`
+/// moved per candidate). No hit yet is `(t, id) = (+∞, u32::MAX)`, which every candidate
+/// beats (a candidate has t ≤ `t_max` and an id below `u32::MAX`: ids count primitives).
+#[derive(Clone, Copy, Debug)]
+struct Closest {
+    t_max: f32,
+    t: f32,
+    id: u32,
+    kind: PrimKind,
+    index: u32,
+}
+
+impl Closest {
+    #[inline(always)]
+    fn new(t_max: f32, best: &Option<Hit>) -> Self {
+        match best {
+            Some(h) => Closest {
+                t_max,
+                t: h.t,
+                id: h.id,
+                kind: h.kind,
+                index: h.index,
+            },
+            None => Closest {
+                t_max,
+                t: f32::INFINITY,
+                id: u32::MAX,
+                kind: PrimKind::Triangle,
+                index: 0,
+            },
+        }
+    }
+
+    /// `keep_closest` then `t_max = t`, as `linear::intersect_range` does for a hit.
+    #[inline(always)]
+    fn offer(&mut self, t: f32, id: u32, kind: PrimKind, index: usize) {
+        if beats((t, id), (self.t, self.id)) {
+            self.t = t;
+            self.id = id;
+            self.kind = kind;
+            self.index = index as u32;
+        }
+        self.t_max = t;
+    }
+
+    /// `offer` for each lane of `mask` whose `t` is still within `t_max`: primitive
+    /// `first + k` of `kind`, its id from `ids` (lanes in pool order, as the scan offers).
+    #[inline(always)]
+    fn offer_lanes(&mut self, t: &[f32], mut mask: u32, first: usize, ids: &[u32], kind: PrimKind) {
+        while mask != 0 {
+            let k = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            if t[k] <= self.t_max {
+                let i = first + k;
+                self.offer(t[k], ids[i], kind, i);
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn hit(&self, scene: &Scene) -> Option<Hit> {
+        if self.id == u32::MAX {
+            return None;
+        }
+        let i = self.index as usize;
+        let object = match self.kind {
+            PrimKind::Sphere => scene.spheres.object[i],
+            PrimKind::Quad => scene.quads.object[i],
+            PrimKind::Triangle => scene.triangles.object[i],
+        };
+        Some(Hit {
+            t: self.t,
+            id: self.id,
+            kind: self.kind,
+            index: self.index,
+            object,
+        })
+    }
+
+    /// Triangles `start..start + n` (n ≤ 4) in one `intersect4`, hits in pool order.
+    #[inline(always)]
+    fn triangles4(
+        &mut self,
+        scene: &Scene,
+        start: usize,
+        n: usize,
+        ray: &WatertightRay,
+        cols: &Columns,
+        t_min: f32,
+    ) {
+        let tri = &scene.triangles;
+        let (t, mask) = tri.intersect4_in(cols, start, n, ray, t_min, self.t_max);
+        self.offer_lanes(&t, mask, start, &tri.id, PrimKind::Triangle);
+    }
+
+    /// `linear::intersect_range` on this state: spheres and triangles four at a time,
+    /// quads one at a time. The triangle test's constants are made only for quads and
+    /// triangles: a sphere leaf needs none of them (two divisions and the axis choice, 11%
+    /// of the instructions of a scene of 486 spheres in the tree, `trace_probe`).
+    #[inline(never)]
+    fn range(
+        &mut self,
+        scene: &Scene,
+        kind: PrimKind,
+        range: Range<usize>,
+        consts: &mut RayConsts<'_>,
+        t_min: f32,
+    ) {
+        let mut start = range.start;
+        match kind {
+            PrimKind::Sphere => {
+                let s = &scene.spheres;
+                while start < range.end {
+                    let n = (range.end - start).min(4);
+                    let (t, mask) = s.intersect4(start, n, &consts.sphere, t_min, self.t_max);
+                    self.offer_lanes(&t, mask, start, &s.id, kind);
+                    start += n;
+                }
+            }
+            PrimKind::Quad => {
+                let (q, ray) = (&scene.quads, consts.ray);
+                for i in range {
+                    let w = || *consts.triangle();
+                    if let Some(t) = q.intersect_lazy(i, ray, w, t_min, self.t_max) {
+                        self.offer(t, q.id[i], kind, i);
+                    }
+                }
+            }
+            PrimKind::Triangle => {
+                let tri = *consts.triangle();
+                let cols = scene.triangles.columns(tri.axes);
+                while start < range.end {
+                    let n = (range.end - start).min(4);
+                    self.triangles4(scene, start, n, &tri, &cols, t_min);
+                    start += n;
+                }
+            }
+        }
+    }
+}
+
+impl Bvh {
+    /// Closest hit in `[t_min, t_max]` by the `(t, id)` rule.
+    #[inline]
+    pub fn closest_hit(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        stats: &mut TraversalStats,
+    ) -> Option<Hit> {
+        let (mut consts, q) = RayConsts::with_reciprocals(ray);
+        let mut c = Closest::new(t_max, &None);
+        // The tree first, the spheres beside it after: their test (a square root and a
+        // division) then does not delay the root's box test, which would wait for the
+        // `t_max` it produces; the ground sphere never pruned a node (same node counts on
+        // `bunny` and `bunny-closeup`), and 2.5% fewer instructions a closeup ray.
+        if let Some(root) = self.root8 {
+            // The box constants only for a tree (`mixed`, `spheres` and `quads` have
+            // none: 1.3% of `mixed`'s scalar render made them for nothing, callgrind).
+            let bray = BoxRay8::from_inv(ray, q);
+            traverse::<_, STACK8>(
+                &self.nodes8,
+                scene,
+                root,
+                &mut consts,
+                &bray,
+                t_min,
+                &mut c,
+                stats,
+            );
+        }
+        self.linear_kinds(scene, &mut consts, t_min, &mut c, stats);
+        c.hit(scene)
+    }
+
+    /// The kinds beside the tree: the spheres pre-packed eight an `f32x8` (the bunny scene's
+    /// three in one pass), quads and triangles out of line.
+    #[inline(always)]
+    fn linear_kinds(
+        &self,
+        scene: &Scene,
+        consts: &mut RayConsts<'_>,
+        t_min: f32,
+        c: &mut Closest,
+        stats: &mut TraversalStats,
+    ) {
+        let spheres = &self.linear[0];
+        let n = spheres.len();
+        if n > 0 {
+            stats.prims += n as u64;
+            // `SpherePool::intersect4` on the pre-packed lanes (`pack_spheres` packs
+            // exactly `linear[0]`).
+            debug_assert_eq!(self.linear_spheres.len(), n.div_ceil(SPHERE_GROUP));
+            let s = &scene.spheres;
+            let r = &consts.sphere;
+            for (g, lanes) in self.linear_spheres.iter().enumerate() {
+                let (t, mask) = lanes.intersect(r, t_min, c.t_max);
+                // A larger `t_max` than the scan's for the group's later spheres gives
+                // the same hits: a lane beyond the current `t_max` is not offered.
+                let first = spheres.start + SPHERE_GROUP * g;
+                c.offer_lanes(&t, mask, first, &s.id, PrimKind::Sphere);
+            }
+        }
+        match self.beside {
+            Beside::OneQuad => {
+                let q = &self.one_quad;
+                stats.prims += 1;
+                let ray = consts.ray;
+                let w = || *consts.triangle();
+                if let Some(t) = q.intersect_lazy(ray, w, t_min, c.t_max) {
+                    c.offer(t, q.id, PrimKind::Quad, q.index);
+                }
+            }
+            Beside::Nothing => {}
+            Beside::Pools => self.linear_quads_triangles(scene, consts, t_min, c, stats),
+        }
+    }
+
+    #[inline(never)]
+    fn linear_quads_triangles(
+        &self,
+        scene: &Scene,
+        consts: &mut RayConsts<'_>,
+        t_min: f32,
+        c: &mut Closest,
+        stats: &mut TraversalStats,
+    ) {
+        if !self.linear[1].is_empty() {
+            stats.prims += self.linear[1].len() as u64;
+            let (q, ray) = (&scene.quads, consts.ray);
+            for group in &self.linear_quads {
+                let w = || *consts.triangle();
+                if group.is_single() {
+                    let i = group.indices().start;
+                    if let Some(t) = q.intersect_lazy(i, ray, w, t_min, c.t_max) {
+                        c.offer(t, q.id[i], PrimKind::Quad, i);
+                    }
+                    continue;
+                }
+                let (t, mask) = group.intersect(q, ray, w, t_min, c.t_max);
+                c.offer_lanes(&t, mask, group.indices().start, &q.id, PrimKind::Quad);
+            }
+        }
+        let range = self.linear[2].clone();
+        if !range.is_empty() {
+            stats.prims += range.len() as u64;
+            c.range(scene, PrimKind::Triangle, range, consts, t_min);
+        }
+    }
+
+    /// Closest hit in the subtree `root` (a node or leaf code), improving on `best` and
+    /// shrinking `t_max`. The packet traversal finishes lanes with it.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub(crate) fn closest_hit_from(
+        &self,
+        scene: &Scene,
+        root: u32,
+        consts: &mut RayConsts<'_>,
+        bray: &BoxRay,
+        t_min: f32,
+        t_max: &mut f32,
+        best: &mut Option<Hit>,
+        stats: &mut TraversalStats,
+    ) {
+        let mut c = Closest::new(*t_max, best);
+        traverse::<_, STACK4>(&self.nodes, scene, root, consts, bray, t_min, &mut c, stats);
+        *t_max = c.t_max;
+        if let Some(h) = c.hit(scene) {
+            *best = Some(h);
+        }
+    }
+
+    /// Does a primitive occlude the light by `query`'s rule (`ShadowQuery`)? Stops at
+    /// the first occluder.
+    pub fn occluded(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        query: ShadowQuery,
+        stats: &mut TraversalStats,
+    ) -> bool {
+        let (mut consts, q) = RayConsts::with_reciprocals(ray);
+        self.occluded_consts(scene, &mut consts, q, query, stats)
+    }
+
+    /// The original program's shadow test (`Accel::light_visible`): the light's own
+    /// nearest hit, then any occluder before it. The ray's constants are made once for
+    /// both; the watertight ones only for a quad or triangle that needs them (a point
+    /// light, the spheres and a quad whose plane the ray does not meet before the light
+    /// need none: `mixed` and `spheres` shadow rays test no triangle or quad edges at
+    /// all).
+    pub fn light_visible(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        t_min: f32,
+        light: &Light,
+        stats: &mut TraversalStats,
+    ) -> bool {
+        let (mut consts, q) = RayConsts::with_reciprocals(ray);
+        let own = match light.shape {
+            LightShape::Point { center, radius } => {
+                sphere_intersect_with(center, radius, &consts.sphere, t_min, f32::INFINITY)
+                    .map(|t| (t, light.first_id))
+            }
+            _ => light.nearest_hit_watertight(ray, consts.triangle(), t_min),
+        };
+        let Some((t_light, id_light)) = own else {
+            return false;
+        };
+        let query = ShadowQuery {
+            t_min,
+            t_light,
+            id_light,
+            object: light.object,
+        };
+        !self.occluded_consts(scene, &mut consts, q, query, stats)
+    }
+
+    /// `occluded` with the ray's constants and reciprocals `q` (`with_reciprocals`)
+    /// made: beside the tree, then through the 8-wide tree (fewer nodes a ray than the
+    /// 4-wide one, as for closest hits), whose box constants are made only then.
+    #[inline(always)]
+    fn occluded_consts(
+        &self,
+        scene: &Scene,
+        consts: &mut RayConsts<'_>,
+        q: Vec4,
+        query: ShadowQuery,
+        stats: &mut TraversalStats,
+    ) -> bool {
+        if self.occluded_beside(scene, consts, query, stats) {
+            return true;
+        }
+        let Some(root) = self.root8 else { return false };
+        let bray = BoxRay8::from_inv(consts.ray, q);
+        occluded_in::<_, STACK8>(&self.nodes8, scene, root, consts, &bray, query, stats)
+    }
+
+    /// `occluded` among the primitives beside the tree: the spheres and the quads eight
+    /// at a time (the packed groups of `linear_kinds`), the triangles by the scan.
+    #[inline(always)]
+    fn occluded_beside(
+        &self,
+        scene: &Scene,
+        consts: &mut RayConsts<'_>,
+        query: ShadowQuery,
+        stats: &mut TraversalStats,
+    ) -> bool {
+        let ShadowQuery { t_min, t_light, .. } = query;
+        let spheres = &self.linear[0];
+        if !spheres.is_empty() {
+            stats.prims += spheres.len() as u64;
+            let (s, r) = (&scene.spheres, &consts.sphere);
+            for (g, lanes) in self.linear_spheres.iter().enumerate() {
+                let (t, mask) = lanes.intersect(r, t_min, t_light);
+                let first = spheres.start + SPHERE_GROUP * g;
+                let occludes =
+                    |k: usize| query.occludes(t[k], s.id[first + k], s.object[first + k]);
+                if set_lanes(mask).any(occludes) {
+                    return true;
+                }
+            }
+        }
+        match self.beside {
+            Beside::Nothing => return false,
+            Beside::OneQuad => {
+                let q = &self.one_quad;
+                stats.prims += 1;
+                let ray = consts.ray;
+                let w = || *consts.triangle();
+                return q.object != query.object
+                    && q.intersect_lazy(ray, w, t_min, t_light)
+                        .is_some_and(|t| query.beats_light(t, q.id));
+            }
+            Beside::Pools => {}
+        }
+        if !self.linear[1].is_empty() {
+            stats.prims += self.linear[1].len() as u64;
+            let (q, ray) = (&scene.quads, consts.ray);
+            for group in &self.linear_quads {
+                let first = group.indices().start;
+                let w = || *consts.triangle();
+                if group.is_single() {
+                    let hit = q.intersect_lazy(first, ray, w, t_min, t_light);
+                    if hit.is_some_and(|t| query.occludes(t, q.id[first], q.object[first])) {
+                        return true;
+                    }
+                    continue;
+                }
+                let (t, mask) = group.intersect(q, ray, w, t_min, t_light);
+                let occludes =
+                    |k: usize| query.occludes(t[k], q.id[first + k], q.object[first + k]);
+                if set_lanes(mask).any(occludes) {
+                    return true;
+                }
+            }
+        }
+        let range = self.linear[2].clone();
+        if !range.is_empty() {
+            stats.prims += range.len() as u64;
+            let mut cols = None;
+            if occludes_range(scene, PrimKind::Triangle, range, consts, &mut cols, query) {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// `occluded` in the subtree `root` (of the 4-wide tree) only: the packets' lanes
+    /// that finish alone. Out of line: inlined into the shading loop with the packet
+    /// traversal, it cost the 8-wide renders up to 1.4% more instructions (callgrind).
+    #[inline(never)]
+    pub(crate) fn occluded_from(
+        &self,
+        scene: &Scene,
+        root: u32,
+        consts: &mut RayConsts<'_>,
+        bray: &BoxRay,
+        query: ShadowQuery,
+        stats: &mut TraversalStats,
+    ) -> bool {
+        occluded_in::<_, STACK4>(&self.nodes, scene, root, consts, bray, query, stats)
+    }
+}
+
+/// The scalar any-hit traversal of `tree` from `root` (`ShadowQuery`). Of the children
+/// a node's box test hits, the leaves are tested there and the inner nodes pushed (no
+/// order: the first occluder ends the search), so a leaf costs no push and pop.
+#[inline(always)]
+fn occluded_in<N: Wide, const C: usize>(
+    tree: &[N],
+    scene: &Scene,
+    root: u32,
+    consts: &mut RayConsts<'_>,
+    bray: &N::Ray,
+    query: ShadowQuery,
+    stats: &mut TraversalStats,
+) -> bool {
+    // The triangle columns in this ray's axis order, at the first triangle leaf.
+    let mut cols = None;
+    if root & LEAF != 0 {
+        return leaf_occludes(scene, root, consts, &mut cols, query, stats);
+    }
+    let mut slots = MaybeUninit::<[u32; C]>::uninit();
+    let mut stack = TraversalStack::new(&mut slots);
+    let mut code = root;
+    loop {
+        stats.nodes += 1;
+        let node = &tree[code as usize];
+        let (_, mut mask) = node.test(bray, query.t_min, query.t_light);
+        while mask != 0 {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let child = node.child(i);
+            if child & LEAF == 0 {
+                stack.push(child);
+            } else if leaf_occludes(scene, child, consts, &mut cols, query, stats) {
+                return true;
+            }
+        }
+        let Some(next) = stack.pop() else {
+            return false;
+        };
+        code = next;
+    }
+}
+
+/// `occludes_range` on the leaf `code`'s primitives.
+#[inline(always)]
+fn leaf_occludes<'s>(
+    scene: &'s Scene,
+    code: u32,
+    consts: &mut RayConsts<'_>,
+    cols: &mut Option<Columns<'s>>,
+    query: ShadowQuery,
+    stats: &mut TraversalStats,
+) -> bool {
+    let (kind, start, count) = decode_leaf(code);
+    stats.prims += count as u64;
+    let range = start as usize..(start + count) as usize;
+    occludes_range(scene, kind, range, consts, cols, query)
+}
+
+/// Does a primitive in `range` occlude by `query`'s rule? Spheres and quads one at a
+/// time (a quad's plane first, `QuadPool::intersect_lazy`), triangles four at a time
+/// through the columns `cols` of the ray's axis order (looked up at the ray's first
+/// triangle leaf).
+#[inline(always)]
+fn occludes_range<'s>(
+    scene: &'s Scene,
+    kind: PrimKind,
+    range: Range<usize>,
+    consts: &mut RayConsts<'_>,
+    cols: &mut Option<Columns<'s>>,
+    query: ShadowQuery,
+) -> bool {
+    let ShadowQuery {
+        t_min,
+        t_light,
+        object,
+        ..
+    } = query;
+    match kind {
+        // Plain loops: as `Iterator::any` the quads' loop was left out of line, a call
+        // per leaf (callgrind, the scalar `cornell` render).
+        PrimKind::Sphere => {
+            let s = &scene.spheres;
+            for i in range {
+                if s.object[i] != object
+                    && s.intersect(i, &consts.sphere, t_min, t_light)
+                        .is_some_and(|t| query.beats_light(t, s.id[i]))
+                {
+                    return true;
+                }
+            }
+            false
+        }
+        PrimKind::Quad => {
+            let (q, ray) = (&scene.quads, consts.ray);
+            for i in range {
+                if q.object[i] != object
+                    && q.intersect_lazy(i, ray, || *consts.triangle(), t_min, t_light)
+                        .is_some_and(|t| query.beats_light(t, q.id[i]))
+                {
+                    return true;
+                }
+            }
+            false
+        }
+        PrimKind::Triangle => {
+            let tri = &scene.triangles;
+            let w = *consts.triangle();
+            let cols = cols.get_or_insert_with(|| tri.columns(w.axes));
+            let mut start = range.start;
+            while start < range.end {
+                let n = (range.end - start).min(4);
+                let (t, mut mask) = tri.intersect4_in(cols, start, n, &w, t_min, t_light);
+                while mask != 0 {
+                    let k = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let i = start + k;
+                    if query.occludes(t[k], tri.id[i], tri.object[i]) {
+                        return true;
+                    }
+                }
+                start += n;
+            }
+            false
+        }
+    }
+}
+
+/// The scalar closest-hit traversal. The current node stays in a register: of the
+/// children a node's box test hits, the nearest is visited next and only the others
+/// are pushed (farthest first), so a node with one hit child costs no push or pop.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn traverse<N: Wide, const C: usize>(
+    tree: &[N],
+    scene: &Scene,
+    root: u32,
+    consts: &mut RayConsts<'_>,
+    bray: &N::Ray,
+    t_min: f32,
+    c: &mut Closest,
+    stats: &mut TraversalStats,
+) {
+    // As a root popped from the stack at entry t_min would be.
+    if t_min > c.t_max {
+        return;
+    }
+    let mut slots = MaybeUninit::<[(u32, f32); C]>::uninit();
+    let mut stack = TraversalStack::new(&mut slots);
+    let (mut nodes, mut prims) = (0u64, 0u64);
+    let mut code = root;
+    // The triangle columns in this ray's axis order, at the first triangle leaf.
+    let mut cols: Option<Columns> = None;
+    'visit: loop {
+        if code & LEAF == 0 {
+            nodes += 1;
+            let node = &tree[code as usize];
+            let (entry, mask) = node.test(bray, t_min, c.t_max);
+            if mask != 0 {
+                let i = mask.trailing_zeros() as usize;
+                let rest = mask & (mask - 1);
+                if rest == 0 {
+                    code = node.child(i);
+                    continue 'visit;
+                }
+                let e = entry.as_ref();
+                // Slots below `WIDTH` (a power of two): the mask lets the bounds checks go.
+                let (i, j) = (
+                    i & (N::WIDTH - 1),
+                    rest.trailing_zeros() as usize & (N::WIDTH - 1),
+                );
+                if rest & (rest - 1) == 0 {
+                    // Two: push the farther. Which is nearer is a coin toss for the
+                    // branch predictor, so it is a select, not a branch.
+                    let (ci, cj) = (node.child(i), node.child(j));
+                    let swap = e[j] < e[i];
+                    let (near, far) = if swap { (cj, ci) } else { (ci, cj) };
+                    let far_e = if swap { e[i] } else { e[j] };
+                    stack.push((far, far_e));
+                    code = near;
+                    continue 'visit;
+                }
+                // Three or more: sort nearest first (branch-free: `nearest_first`,
+                // `nearest_first8`), push all but the nearest (farthest first).
+                code = node.child(node.push_farther(mask, &entry, &mut stack));
+                continue 'visit;
+            }
+        } else {
+            let (kind, start, count) = decode_leaf(code);
+            prims += count as u64;
+            if kind == PrimKind::Triangle {
+                let tri = *consts.triangle();
+                let cols = cols.get_or_insert_with(|| scene.triangles.columns(tri.axes));
+                c.triangles4(scene, start as usize, count as usize, &tri, cols, t_min);
+            } else {
+                let range = start as usize..(start + count) as usize;
+                c.range(scene, kind, range, consts, t_min);
+            }
+        }
+        // Pop the next node still nearer than the best hit.
+        while let Some((next, enter)) = stack.pop() {
+            if enter <= c.t_max {
+                code = next;
+                continue 'visit;
+            }
+        }
+        break;
+    }
+    stats.nodes += nodes;
+    stats.prims += prims;
+}
