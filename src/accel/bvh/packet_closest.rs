@@ -240,31 +240,11 @@ impl<L: Lane> PacketHits<L> {
         }
     }
 
+    /// The primitives `range` of `kind` on the lanes of `lanes`: a lane takes a
+    /// primitive that beats its closest hit so far by the `(t, id)` rule.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn leaf(
-        &mut self,
-        scene: &Scene,
-        p: &RayPacket<L>,
-        kind: PrimKind,
-        range: std::ops::Range<usize>,
-        t_min: f32,
-        lanes: u32,
-        tris: &mut LazyTriangles<'_, L>,
-    ) {
-        // One loop per kind, each with its kind's test only.
-        let (r, l) = (range, lanes);
-        match kind {
-            PrimKind::Sphere => self.leaf_of(scene, p, PrimKind::Sphere, r, t_min, l, tris),
-            PrimKind::Quad => self.leaf_of(scene, p, PrimKind::Quad, r, t_min, l, tris),
-            PrimKind::Triangle => self.leaf_of(scene, p, PrimKind::Triangle, r, t_min, l, tris),
-        }
-    }
-
-    /// `leaf` for primitives of `kind`.
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    fn leaf_of(
         &mut self,
         scene: &Scene,
         p: &RayPacket<L>,
@@ -335,7 +315,7 @@ impl Bvh {
             }
             if p.cull.beside[k] == u32::MAX {
                 stats.prims += (range.len() * p.active.count_ones() as usize) as u64;
-                st.leaf(scene, p, kind, range, t_min, p.active, &mut tris);
+                kind.specialize(|k| st.leaf(scene, p, k, range, t_min, p.active, &mut tris));
                 continue;
             }
             // The primitives the cull keeps (past the 32nd, all), in pool order.
@@ -346,12 +326,12 @@ impl Bvh {
                 let i = first + kept.trailing_zeros() as usize;
                 kept &= kept - 1;
                 stats.prims += p.active.count_ones() as u64;
-                st.leaf(scene, p, kind, i..i + 1, t_min, p.active, &mut tris);
+                kind.specialize(|k| st.leaf(scene, p, k, i..i + 1, t_min, p.active, &mut tris));
             }
             if range.len() > 32 {
                 let rest = first + 32..range.end;
                 stats.prims += (rest.len() * p.active.count_ones() as usize) as u64;
-                st.leaf(scene, p, kind, rest, t_min, p.active, &mut tris);
+                kind.specialize(|k| st.leaf(scene, p, k, rest, t_min, p.active, &mut tris));
             }
         }
         let Some(root) = self.root else {
@@ -385,15 +365,8 @@ impl Bvh {
             if lanes != 0 && code & LEAF != 0 {
                 let (kind, start, count) = decode_leaf(code);
                 stats.prims += (count * lanes.count_ones()) as u64;
-                st.leaf(
-                    scene,
-                    p,
-                    kind,
-                    start as usize..(start + count) as usize,
-                    t_min,
-                    lanes,
-                    &mut tris,
-                );
+                let range = start as usize..(start + count) as usize;
+                kind.specialize(|k| st.leaf(scene, p, k, range, t_min, lanes, &mut tris));
             } else if lanes != 0 {
                 stats.nodes += 1;
                 stats.packet_nodes += 1;
@@ -510,7 +483,7 @@ impl Bvh {
                 if leaf_lanes != 0 {
                     stats.prims += (count * leaf_lanes.count_ones()) as u64;
                     let range = start as usize..(start + count) as usize;
-                    st.leaf(scene, p, kind, range, t_min, leaf_lanes, tris);
+                    kind.specialize(|k| st.leaf(scene, p, k, range, t_min, leaf_lanes, tris));
                     t_far = far(st);
                 }
             } else {

@@ -53,35 +53,14 @@ impl<L: Lane> ShadowLanes<L> {
 }
 
 /// The lanes of `lanes` for which a primitive of `range` (of `kind`) occludes `light`
-/// (`Bvh::occluded_lanes`) within `t_max`.
-/// Inlined into the traversal (a closure call cost `cornell`'s shadow packets 12% more
-/// instructions, `packet_probe cornell 8 shadow`), one loop per kind: with the kind
-/// known, each loop holds only its kind's test (the tree's leaves, whose kind is not
-/// known, take `occluders_of` with all three: a copy per kind there cost more).
+/// (`Bvh::occluded_lanes`) within `t_max`. Inlined into the traversal (a closure call
+/// cost `cornell`'s shadow packets 12% more instructions, `packet_probe cornell 8
+/// shadow`). The loops beside the tree specialise it per kind (`PrimKind::specialize`),
+/// each then holding only its kind's test; the tree's leaves, whose kind is not known,
+/// take it with all three (a copy per kind there cost more).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn occluders<L: Lane>(
-    scene: &Scene,
-    p: &RayPacket<L>,
-    light: ShadowLanes<L>,
-    kind: PrimKind,
-    range: std::ops::Range<usize>,
-    lanes: u32,
-    t_max: L,
-    tris: &mut LazyTriangles<'_, L>,
-) -> u32 {
-    let (s, r, l) = (scene, range, lanes);
-    match kind {
-        PrimKind::Sphere => occluders_of(s, p, light, PrimKind::Sphere, r, l, t_max, tris),
-        PrimKind::Quad => occluders_of(s, p, light, PrimKind::Quad, r, l, t_max, tris),
-        PrimKind::Triangle => occluders_of(s, p, light, PrimKind::Triangle, r, l, t_max, tris),
-    }
-}
-
-/// `occluders` for primitives of `kind`.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn occluders_of<L: Lane>(
     scene: &Scene,
     p: &RayPacket<L>,
     light: ShadowLanes<L>,
@@ -159,7 +138,8 @@ fn occluded_among<L: Lane>(
             continue;
         }
         stats.prims += (range.len() * remaining.count_ones() as usize) as u64;
-        remaining &= !occluders(scene, p, light, kind, range, remaining, t_max, tris);
+        let l = remaining;
+        remaining &= !kind.specialize(|k| occluders(scene, p, light, k, range, l, t_max, tris));
         if remaining == 0 {
             break;
         }
@@ -279,7 +259,9 @@ impl Bvh {
             let range = self.linear[k].clone();
             if !range.is_empty() && remaining != 0 {
                 stats.prims += (range.len() * remaining.count_ones() as usize) as u64;
-                let found = occluders(scene, p, light, kind, range, remaining, t_max, tris);
+                let l = remaining;
+                let found =
+                    kind.specialize(|k| occluders(scene, p, light, k, range, l, t_max, tris));
                 occluded |= found;
                 remaining &= !found;
             }
@@ -316,7 +298,7 @@ impl Bvh {
                 let (kind, start, count) = decode_leaf(code);
                 stats.prims += (count * lanes.count_ones()) as u64;
                 let range = start as usize..(start + count) as usize;
-                found = occluders_of(scene, p, light, kind, range, lanes, t_max, tris);
+                found = occluders(scene, p, light, kind, range, lanes, t_max, tris);
             } else {
                 stats.nodes += 1;
                 stats.packet_nodes += 1;
@@ -354,7 +336,7 @@ impl Bvh {
                         let (kind, start, count) = decode_leaf(child);
                         stats.prims += (count * bits.count_ones()) as u64;
                         let range = start as usize..(start + count) as usize;
-                        found |= occluders_of(scene, p, light, kind, range, bits, t_max_l, tris);
+                        found |= occluders(scene, p, light, kind, range, bits, t_max_l, tris);
                         continue;
                     }
                     stack.push((child, bits));

@@ -16,8 +16,8 @@ use glam::Vec4;
 use std::mem::MaybeUninit;
 use std::ops::Range;
 
-/// The per-ray constants of a scalar traversal: `PrimRay`'s and `BoxRay`'s values (the
-/// same IEEE quotients, so the same bits), with the triangle test's computed at the first
+/// The per-ray constants of a scalar traversal: the primitive tests' and `BoxRay`'s
+/// values (the same IEEE quotients as their own constructors, so the same bits), with the triangle test's computed at the first
 /// triangle leaf: most camera rays of `bunny` miss the mesh's box, and the axis choice,
 /// its two divisions and the pool pointers they select cost ~100 instructions a ray
 /// (callgrind). 1/dx, 1/dy, 1/dz and 1/(d·d) are one vector divide. Shadow rays
@@ -42,7 +42,7 @@ impl<'r> RayConsts<'r> {
 
     /// The constants and (1/dx, 1/dy, 1/dz, 1/(d·d)).
     #[inline(always)]
-    fn with_reciprocals(ray: &'r Ray) -> (RayConsts<'r>, Vec4) {
+    pub(crate) fn with_reciprocals(ray: &'r Ray) -> (RayConsts<'r>, Vec4) {
         let d = ray.dir;
         let a = d.dot(d);
         let q = Vec4::ONE / Vec4::new(d.x, d.y, d.z, a);
@@ -87,8 +87,8 @@ fn watertight_ray(ray: &Ray) -> WatertightRay {
 /// moved per candidate). No hit yet is `(t, id) = (+∞, u32::MAX)`, which every candidate
 /// beats (a candidate has t ≤ `t_max` and an id below `u32::MAX`: ids count primitives).
 #[derive(Clone, Copy, Debug)]
-struct Closest {
-    t_max: f32,
+pub(crate) struct Closest {
+    pub(crate) t_max: f32,
     t: f32,
     id: u32,
     kind: PrimKind,
@@ -97,7 +97,7 @@ struct Closest {
 
 impl Closest {
     #[inline(always)]
-    fn new(t_max: f32, best: &Option<Hit>) -> Self {
+    pub(crate) fn new(t_max: f32, best: &Option<Hit>) -> Self {
         match best {
             Some(h) => Closest {
                 t_max,
@@ -116,7 +116,7 @@ impl Closest {
         }
     }
 
-    /// `keep_closest` then `t_max = t`, as `linear::intersect_range` does for a hit.
+    /// `keep_closest` then `t_max = t`.
     #[inline(always)]
     fn offer(&mut self, t: f32, id: u32, kind: PrimKind, index: usize) {
         if beats((t, id), (self.t, self.id)) {
@@ -143,7 +143,7 @@ impl Closest {
     }
 
     #[inline(always)]
-    fn hit(&self, scene: &Scene) -> Option<Hit> {
+    pub(crate) fn hit(&self, scene: &Scene) -> Option<Hit> {
         if self.id == u32::MAX {
             return None;
         }
@@ -178,12 +178,13 @@ impl Closest {
         self.offer_lanes(&t, mask, start, &tri.id, PrimKind::Triangle);
     }
 
-    /// `linear::intersect_range` on this state: spheres and triangles four at a time,
-    /// quads one at a time. The triangle test's constants are made only for quads and
-    /// triangles: a sphere leaf needs none of them (two divisions and the axis choice, 11%
-    /// of the instructions of a scene of 486 spheres in the tree, `trace_probe`).
+    /// The primitives `range` of `kind` (a leaf, or a pool of the linear scan): spheres
+    /// and triangles four at a time, quads one at a time. The triangle test's constants
+    /// are made only for quads and triangles: a sphere leaf needs none of them (two
+    /// divisions and the axis choice, 11% of the instructions of a scene of 486 spheres
+    /// in the tree, `trace_probe`).
     #[inline(never)]
-    fn range(
+    pub(crate) fn range(
         &mut self,
         scene: &Scene,
         kind: PrimKind,
