@@ -9,6 +9,7 @@
 //! `(t, id)` whatever the visiting order. A subtree entered by few lanes
 //! (`RayPacket::fallback`) is finished one ray at a time by the scalar traversal.
 
+use crate::accel::TraversalStats;
 use super::bvh::{plane_rows, slab, Node4, FAR_SCALE, NEAR_SCALE};
 pub use super::bvh::{PacketHits, ShadowLanes};
 use crate::accel::cull::Cull;
@@ -636,6 +637,47 @@ impl<'a, L: Lane> LazyTriangles<'a, L> {
     pub(crate) fn make(&mut self) {
         self.lanes = self.packet.triangle_lanes(self.tri, self.quads);
         self.made = true;
+    }
+}
+
+/// What a packet's traversal carries from the query down to its leaf loops: the scene,
+/// the packet, its watertight lanes (`LazyTriangles`) and the counts of the work done
+/// (`TraversalStats`), one argument where they were four.
+pub(crate) struct PacketQuery<'a, 's, L: Lane> {
+    pub(crate) scene: &'a Scene,
+    pub(crate) p: &'a RayPacket<L>,
+    pub(crate) tris: LazyTriangles<'a, L>,
+    pub(crate) stats: &'s mut TraversalStats,
+}
+
+impl<'a, 's, L: Lane> PacketQuery<'a, 's, L> {
+    #[inline(always)]
+    pub(crate) fn new(
+        scene: &'a Scene,
+        p: &'a RayPacket<L>,
+        stats: &'s mut TraversalStats,
+    ) -> Self {
+        let tris = LazyTriangles::new(p, scene);
+        PacketQuery {
+            scene,
+            p,
+            tris,
+            stats,
+        }
+    }
+
+    /// `RayPacket::test_prim` of primitive `i` of `kind` on the lanes of `lanes`.
+    #[inline(always)]
+    pub(crate) fn test_prim(
+        &mut self,
+        kind: PrimKind,
+        i: usize,
+        t_min: f32,
+        t_max: L,
+        lanes: u32,
+    ) -> (L, u32) {
+        self.p
+            .test_prim(self.scene, kind, i, t_min, t_max, lanes, &mut self.tris)
     }
 }
 

@@ -4,7 +4,7 @@
 use super::node::{decode_leaf, Node8, Wide, EMPTY, LEAF};
 use super::single::RayConsts;
 use super::Bvh;
-use crate::accel::packet::{ids, in_play, LazyTriangles, RayPacket, MAX_WIDTH};
+use crate::accel::packet::{ids, in_play, PacketQuery, RayPacket, MAX_WIDTH};
 use crate::accel::stack::{TraversalStack, STACK4, STACK8};
 use crate::accel::TraversalStats;
 use crate::geometry::{beats, Hit, PrimKind};
@@ -242,20 +242,18 @@ impl<L: Lane> PacketHits<L> {
 
     /// The primitives `range` of `kind` on the lanes of `lanes`: a lane takes a
     /// primitive that beats its closest hit so far by the `(t, id)` rule.
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn leaf(
         &mut self,
-        scene: &Scene,
-        p: &RayPacket<L>,
+        q: &mut PacketQuery<'_, '_, L>,
         kind: PrimKind,
         range: std::ops::Range<usize>,
         t_min: f32,
         lanes: u32,
-        tris: &mut LazyTriangles<'_, L>,
     ) {
+        let scene = q.scene;
         for i in range {
-            let (t, bits) = p.test_prim(scene, kind, i, t_min, self.t, lanes, tris);
+            let (t, bits) = q.test_prim(kind, i, t_min, self.t, lanes);
             if bits == 0 {
                 continue;
             }
@@ -304,7 +302,7 @@ impl Bvh {
         t_min: f32,
         stats: &mut TraversalStats,
     ) -> PacketHits<L> {
-        let mut tris = LazyTriangles::new(p, scene);
+        let q = &mut PacketQuery::new(scene, p, stats);
         let mut st = PacketHits::none(p.active);
         for (k, &kind) in PrimKind::ALL.iter().enumerate() {
             let range = self.linear[k].clone();
@@ -314,8 +312,8 @@ impl Bvh {
                 continue;
             }
             if p.cull.beside[k] == u32::MAX {
-                stats.prims += (range.len() * p.active.count_ones() as usize) as u64;
-                kind.specialize(|k| st.leaf(scene, p, k, range, t_min, p.active, &mut tris));
+                q.stats.prims += (range.len() * p.active.count_ones() as usize) as u64;
+                kind.specialize(|k| st.leaf(q, k, range, t_min, p.active));
                 continue;
             }
             // The primitives the cull keeps (past the 32nd, all), in pool order.
@@ -325,13 +323,13 @@ impl Bvh {
             while kept != 0 {
                 let i = first + kept.trailing_zeros() as usize;
                 kept &= kept - 1;
-                stats.prims += p.active.count_ones() as u64;
-                kind.specialize(|k| st.leaf(scene, p, k, i..i + 1, t_min, p.active, &mut tris));
+                q.stats.prims += p.active.count_ones() as u64;
+                kind.specialize(|k| st.leaf(q, k, i..i + 1, t_min, p.active));
             }
             if range.len() > 32 {
                 let rest = first + 32..range.end;
-                stats.prims += (rest.len() * p.active.count_ones() as usize) as u64;
-                kind.specialize(|k| st.leaf(scene, p, k, rest, t_min, p.active, &mut tris));
+                q.stats.prims += (rest.len() * p.active.count_ones() as usize) as u64;
+                kind.specialize(|k| st.leaf(q, k, rest, t_min, p.active));
             }
         }
         let Some(root) = self.root else {
@@ -349,9 +347,7 @@ impl Bvh {
         // one 8-lane bound test a node, two thirds of the levels (`packet_probe
         // bunny-closeup 8`: 67.2M → 66.0M instructions; at 4 wide 130.4M → 123.2M).
         if let (Some(fr), Some(root8)) = (Frustum::new(p), self.root8) {
-            self.closest_frustum(
-                scene, p, &fr, root8, lanes, t_min, &mut st, &mut tris, stats,
-            );
+            self.closest_frustum(q, &fr, root8, lanes, t_min, &mut st);
             return st;
         }
         let fallback = RayPacket::<L>::fallback();
@@ -364,13 +360,13 @@ impl Bvh {
         loop {
             if lanes != 0 && code & LEAF != 0 {
                 let (kind, start, count) = decode_leaf(code);
-                stats.prims += (count * lanes.count_ones()) as u64;
+                q.stats.prims += (count * lanes.count_ones()) as u64;
                 let range = start as usize..(start + count) as usize;
-                kind.specialize(|k| st.leaf(scene, p, k, range, t_min, lanes, &mut tris));
+                kind.specialize(|k| st.leaf(q, k, range, t_min, lanes));
             } else if lanes != 0 {
-                stats.nodes += 1;
-                stats.packet_nodes += 1;
-                stats.packet_lanes += lanes.count_ones() as u64;
+                q.stats.nodes += 1;
+                q.stats.packet_nodes += 1;
+                q.stats.packet_lanes += lanes.count_ones() as u64;
                 let node = &self.nodes[code as usize];
                 let t_max = in_play(lanes, st.t);
                 // All four boxes first, with no branch between them (an empty slot's box
@@ -406,7 +402,7 @@ impl Bvh {
                                 t_min,
                                 &mut t_max,
                                 &mut best,
-                                stats,
+                                q.stats,
                             );
                             st.set(k, t_max, best);
                         }
@@ -457,18 +453,14 @@ impl Bvh {
     /// nearer than the leaf's entry bound. A subtree is skipped once its entry bound is
     /// beyond every lane's closest hit. Which nodes are visited changes, never what a
     /// lane finds: the bounds are conservative (`Frustum`) and a leaf's test is exact.
-    #[allow(clippy::too_many_arguments)]
     fn closest_frustum<L: Lane>(
         &self,
-        scene: &Scene,
-        p: &RayPacket<L>,
+        q: &mut PacketQuery<'_, '_, L>,
         fr: &Frustum,
         root: u32,
         lanes: u32,
         t_min: f32,
         st: &mut PacketHits<L>,
-        tris: &mut LazyTriangles<'_, L>,
-        stats: &mut TraversalStats,
     ) {
         // The farthest closest hit of the lanes (+∞ while one has none).
         let far = |st: &PacketHits<L>| in_play(lanes, st.t).reduce_max();
@@ -481,15 +473,15 @@ impl Bvh {
                 let (kind, start, count) = decode_leaf(code);
                 let leaf_lanes = st.t.ge(L::splat(enter)).bits() & lanes;
                 if leaf_lanes != 0 {
-                    stats.prims += (count * leaf_lanes.count_ones()) as u64;
+                    q.stats.prims += (count * leaf_lanes.count_ones()) as u64;
                     let range = start as usize..(start + count) as usize;
-                    kind.specialize(|k| st.leaf(scene, p, k, range, t_min, leaf_lanes, tris));
+                    kind.specialize(|k| st.leaf(q, k, range, t_min, leaf_lanes));
                     t_far = far(st);
                 }
             } else {
-                stats.nodes += 1;
-                stats.packet_nodes += 1;
-                stats.packet_lanes += lanes.count_ones() as u64;
+                q.stats.nodes += 1;
+                q.stats.packet_nodes += 1;
+                q.stats.packet_lanes += lanes.count_ones() as u64;
                 let node = &self.nodes8[code as usize];
                 let (entry, mask) = fr.test(node, t_min, t_far);
                 if mask != 0 {

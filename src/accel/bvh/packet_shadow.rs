@@ -5,7 +5,7 @@
 use super::node::{decode_leaf, EMPTY, LEAF};
 use super::single::RayConsts;
 use super::Bvh;
-use crate::accel::packet::{ids, in_play, LazyTriangles, RayPacket, MAX_WIDTH};
+use crate::accel::packet::{ids, in_play, PacketQuery, RayPacket, MAX_WIDTH};
 use crate::accel::shadow::Candidates;
 use crate::accel::stack::{TraversalStack, STACK4};
 use crate::accel::{ShadowQuery, TraversalStats};
@@ -58,18 +58,16 @@ impl<L: Lane> ShadowLanes<L> {
 /// shadow`). The loops beside the tree specialise it per kind (`PrimKind::specialize`),
 /// each then holding only its kind's test; the tree's leaves, whose kind is not known,
 /// take it with all three (a copy per kind there cost more).
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn occluders<L: Lane>(
-    scene: &Scene,
-    p: &RayPacket<L>,
+    q: &mut PacketQuery<'_, '_, L>,
     light: ShadowLanes<L>,
     kind: PrimKind,
     range: std::ops::Range<usize>,
     lanes: u32,
     t_max: L,
-    tris: &mut LazyTriangles<'_, L>,
 ) -> u32 {
+    let scene = q.scene;
     let mut found = 0;
     let t_min = light.t_min;
     // Primitives of the object's own kind are skipped before their test (the light's
@@ -81,7 +79,7 @@ fn occluders<L: Lane>(
         if check_first && ids(scene, kind, i).1 == object {
             continue;
         }
-        let (t, bits) = p.test_prim(scene, kind, i, t_min, t_max, lanes & !found, tris);
+        let (t, bits) = q.test_prim(kind, i, t_min, t_max, lanes & !found);
         if bits == 0 {
             continue;
         }
@@ -109,14 +107,12 @@ fn occluders<L: Lane>(
 /// slab test's scaled reciprocals keep every lane the quad test accepts).
 #[inline(always)]
 fn occluded_among<L: Lane>(
-    scene: &Scene,
-    p: &RayPacket<L>,
+    q: &mut PacketQuery<'_, '_, L>,
     light: ShadowLanes<L>,
     lanes: u32,
     among: Candidates<'_>,
-    tris: &mut LazyTriangles<'_, L>,
-    stats: &mut TraversalStats,
 ) -> u32 {
+    let p = q.p;
     let mut remaining = lanes & p.active;
     let t_max = in_play(remaining, light.t_light);
     let t_min_l = L::splat(light.t_min);
@@ -128,18 +124,18 @@ fn occluded_among<L: Lane>(
                 if inside == 0 {
                     continue;
                 }
-                stats.prims += inside.count_ones() as u64;
+                q.stats.prims += inside.count_ones() as u64;
                 let quad = PrimKind::Quad;
-                remaining &= !occluders(scene, p, light, quad, i..i + 1, inside, t_max, tris);
+                remaining &= !occluders(q, light, quad, i..i + 1, inside, t_max);
                 if remaining == 0 {
                     return lanes & p.active;
                 }
             }
             continue;
         }
-        stats.prims += (range.len() * remaining.count_ones() as usize) as u64;
+        q.stats.prims += (range.len() * remaining.count_ones() as usize) as u64;
         let l = remaining;
-        remaining &= !kind.specialize(|k| occluders(scene, p, light, k, range, l, t_max, tris));
+        remaining &= !kind.specialize(|k| occluders(q, light, k, range, l, t_max));
         if remaining == 0 {
             break;
         }
@@ -175,8 +171,7 @@ impl Bvh {
             .iter()
             .find(|l| l.object == light.object)
             .map(|l| light_kind(&l.shape));
-        let mut tris = LazyTriangles::new(p, scene);
-        self.occluded_lanes(scene, p, light, lanes, &mut tris, stats)
+        self.occluded_lanes(&mut PacketQuery::new(scene, p, stats), light, lanes)
     }
 
     /// `Accel::light_visible` for the active lanes of `p` in `lanes`: the mask of those
@@ -196,14 +191,14 @@ impl Bvh {
         stats: &mut TraversalStats,
     ) -> u32 {
         let lanes = lanes & p.active;
-        let mut tris = LazyTriangles::new(p, scene);
+        let mut q = PacketQuery::new(scene, p, stats);
         let (t_light, id_light, reach) = match &light.shape {
             LightShape::Point { center, radius } => {
                 // `nearest_hit` of a point light, lane-wise.
                 let (t, hits) = p.sphere(*center, *radius, t_min, f32::INFINITY, lanes);
                 (t, L::splat(f32::from_bits(light.first_id)), hits)
             }
-            LightShape::Quads(qs) => p.quad_light_hits(qs, light.first_id, t_min, lanes, &mut tris),
+            LightShape::Quads(qs) => p.quad_light_hits(qs, light.first_id, t_min, lanes, &mut q.tris),
             LightShape::Triangles(_) => {
                 let mut t_light = [0.0; MAX_WIDTH];
                 let mut id_light = [0.0; MAX_WIDTH];
@@ -233,8 +228,8 @@ impl Bvh {
             kind: Some(light_kind(&light.shape)),
         };
         let occluded = match among {
-            Some(c) => occluded_among(scene, p, own, reach, c, &mut tris, stats),
-            None => self.occluded_lanes(scene, p, own, reach, &mut tris, stats),
+            Some(c) => occluded_among(&mut q, own, reach, c),
+            None => self.occluded_lanes(&mut q, own, reach),
         };
         reach & !occluded
     }
@@ -243,13 +238,11 @@ impl Bvh {
     #[inline(always)]
     fn occluded_lanes<L: Lane>(
         &self,
-        scene: &Scene,
-        p: &RayPacket<L>,
+        q: &mut PacketQuery<'_, '_, L>,
         light: ShadowLanes<L>,
         lanes: u32,
-        tris: &mut LazyTriangles<'_, L>,
-        stats: &mut TraversalStats,
     ) -> u32 {
+        let p = q.p;
         let mut remaining = lanes & p.active;
         let mut occluded = 0u32;
         // Lanes not tested get t_max = −∞ (no box or primitive test passes).
@@ -258,10 +251,10 @@ impl Bvh {
         for (k, &kind) in PrimKind::ALL.iter().enumerate() {
             let range = self.linear[k].clone();
             if !range.is_empty() && remaining != 0 {
-                stats.prims += (range.len() * remaining.count_ones() as usize) as u64;
+                q.stats.prims += (range.len() * remaining.count_ones() as usize) as u64;
                 let l = remaining;
                 let found =
-                    kind.specialize(|k| occluders(scene, p, light, k, range, l, t_max, tris));
+                    kind.specialize(|k| occluders(q, light, k, range, l, t_max));
                 occluded |= found;
                 remaining &= !found;
             }
@@ -296,13 +289,13 @@ impl Bvh {
             let mut found = 0;
             if code & LEAF != 0 {
                 let (kind, start, count) = decode_leaf(code);
-                stats.prims += (count * lanes.count_ones()) as u64;
+                q.stats.prims += (count * lanes.count_ones()) as u64;
                 let range = start as usize..(start + count) as usize;
-                found = occluders(scene, p, light, kind, range, lanes, t_max, tris);
+                found = occluders(q, light, kind, range, lanes, t_max);
             } else {
-                stats.nodes += 1;
-                stats.packet_nodes += 1;
-                stats.packet_lanes += lanes.count_ones() as u64;
+                q.stats.nodes += 1;
+                q.stats.packet_nodes += 1;
+                q.stats.packet_lanes += lanes.count_ones() as u64;
                 let node = &self.nodes[code as usize];
                 let t_max_l = in_play(lanes, t_max);
                 // As in `closest_hit_packet`: the four boxes, then one mask.
@@ -325,7 +318,7 @@ impl Bvh {
                             let ray = p.ray(k);
                             let (mut consts, bray) = RayConsts::with_box4(&ray);
                             let query = light.lane(k);
-                            if self.occluded_from(scene, child, &mut consts, &bray, query, stats) {
+                            if self.occluded_from(q.scene, child, &mut consts, &bray, query, q.stats) {
                                 found |= 1 << k;
                             }
                         }
@@ -334,9 +327,9 @@ impl Bvh {
                     // A leaf child is tested here, without a push and pop.
                     if child & LEAF != 0 {
                         let (kind, start, count) = decode_leaf(child);
-                        stats.prims += (count * bits.count_ones()) as u64;
+                        q.stats.prims += (count * bits.count_ones()) as u64;
                         let range = start as usize..(start + count) as usize;
-                        found |= occluders(scene, p, light, kind, range, bits, t_max_l, tris);
+                        found |= occluders(q, light, kind, range, bits, t_max_l);
                         continue;
                     }
                     stack.push((child, bits));
