@@ -1,7 +1,7 @@
 //! The brute-force scan, the original program's algorithm, kept to measure the BVH
 //! against.
 
-use super::bvh::{Closest, RayConsts};
+use super::bvh::{Closest, RayQuery};
 use super::TraversalStats;
 use crate::geometry::aabb::SlabRay;
 use crate::geometry::{Aabb, Hit, PrimKind, Ray};
@@ -61,26 +61,26 @@ impl LinearScan {
         stats: &mut TraversalStats,
     ) -> Option<Hit> {
         let mut c = Closest::new(t_max, &None);
-        let (mut consts, _) = RayConsts::with_reciprocals(ray);
+        let (mut rq, _) = RayQuery::with_reciprocals(scene, ray, stats);
         for (kind, n) in [
             (PrimKind::Sphere, scene.spheres.len()),
             (PrimKind::Quad, scene.quads.len()),
         ] {
-            stats.prims += n as u64;
-            c.range(scene, kind, 0..n, &mut consts, t_min);
+            rq.stats.prims += n as u64;
+            c.range(&mut rq, kind, 0..n, t_min);
         }
         if !self.groups.is_empty() {
             let slab = SlabRay::new(ray);
             for g in &self.groups {
                 if g.count > 1 {
-                    stats.nodes += 1;
+                    rq.stats.nodes += 1;
                     if g.bounds.hit(&slab, t_min, c.t_max).is_none() {
                         continue;
                     }
                 }
-                stats.prims += g.count as u64;
+                rq.stats.prims += g.count as u64;
                 for run in &g.runs {
-                    c.range(scene, PrimKind::Triangle, run.clone(), &mut consts, t_min);
+                    c.range(&mut rq, PrimKind::Triangle, run.clone(), t_min);
                 }
             }
         }

@@ -9,10 +9,10 @@
 //! `(t, id)` whatever the visiting order. A subtree entered by few lanes
 //! (`RayPacket::fallback`) is finished one ray at a time by the scalar traversal.
 
-use crate::accel::TraversalStats;
 use super::bvh::{plane_rows, slab, Node4, FAR_SCALE, NEAR_SCALE};
 pub use super::bvh::{PacketHits, ShadowLanes};
 use crate::accel::cull::Cull;
+use crate::accel::TraversalStats;
 use crate::geometry::quad::{
     inside_quad, outer_edge_is_zero, plane_distance, quad_edge_functions, Quad,
 };

@@ -22,7 +22,7 @@ pub use node8::BoxRay8;
 pub use packet_closest::PacketHits;
 pub use packet_shadow::ShadowLanes;
 use rayon::prelude::*;
-pub(crate) use single::{Closest, RayConsts};
+pub(crate) use single::{Closest, RayQuery};
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use wide::f32x8;

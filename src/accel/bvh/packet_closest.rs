@@ -2,7 +2,7 @@
 //! traversal of the 4-wide nodes, and the frustum of a camera packet over the 8-wide ones.
 
 use super::node::{decode_leaf, Node8, Wide, EMPTY, LEAF};
-use super::single::RayConsts;
+use super::single::RayQuery;
 use super::Bvh;
 use crate::accel::packet::{ids, in_play, PacketQuery, RayPacket, MAX_WIDTH};
 use crate::accel::stack::{TraversalStack, STACK4, STACK8};
@@ -391,20 +391,12 @@ impl Bvh {
                     if bits.count_ones() <= fallback {
                         for k in set_lanes(bits) {
                             let ray = p.ray(k);
-                            let (mut consts, bray) = RayConsts::with_box4(&ray);
+                            let (mut rq, bray) = RayQuery::with_box4(scene, &ray, q.stats);
                             let mut t_max = st.t.lane(k);
                             let mut best = st.hit(k);
-                            self.closest_hit_from(
-                                scene,
-                                child,
-                                &mut consts,
-                                &bray,
-                                t_min,
-                                &mut t_max,
-                                &mut best,
-                                q.stats,
-                            );
-                            st.set(k, t_max, best);
+                            let (t_max, best) = (&mut t_max, &mut best);
+                            self.closest_hit_from(&mut rq, child, &bray, t_min, t_max, best);
+                            st.set(k, *t_max, *best);
                         }
                         finished_alone = true;
                         continue;

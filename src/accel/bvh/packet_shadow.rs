@@ -3,7 +3,7 @@
 //! candidates (`shadow::Candidates`) or through the 4-wide nodes.
 
 use super::node::{decode_leaf, EMPTY, LEAF};
-use super::single::RayConsts;
+use super::single::RayQuery;
 use super::Bvh;
 use crate::accel::packet::{ids, in_play, PacketQuery, RayPacket, MAX_WIDTH};
 use crate::accel::shadow::Candidates;
@@ -198,7 +198,9 @@ impl Bvh {
                 let (t, hits) = p.sphere(*center, *radius, t_min, f32::INFINITY, lanes);
                 (t, L::splat(f32::from_bits(light.first_id)), hits)
             }
-            LightShape::Quads(qs) => p.quad_light_hits(qs, light.first_id, t_min, lanes, &mut q.tris),
+            LightShape::Quads(qs) => {
+                p.quad_light_hits(qs, light.first_id, t_min, lanes, &mut q.tris)
+            }
             LightShape::Triangles(_) => {
                 let mut t_light = [0.0; MAX_WIDTH];
                 let mut id_light = [0.0; MAX_WIDTH];
@@ -253,8 +255,7 @@ impl Bvh {
             if !range.is_empty() && remaining != 0 {
                 q.stats.prims += (range.len() * remaining.count_ones() as usize) as u64;
                 let l = remaining;
-                let found =
-                    kind.specialize(|k| occluders(q, light, k, range, l, t_max));
+                let found = kind.specialize(|k| occluders(q, light, k, range, l, t_max));
                 occluded |= found;
                 remaining &= !found;
             }
@@ -316,9 +317,8 @@ impl Bvh {
                     if bits.count_ones() <= fallback {
                         for k in set_lanes(bits) {
                             let ray = p.ray(k);
-                            let (mut consts, bray) = RayConsts::with_box4(&ray);
-                            let query = light.lane(k);
-                            if self.occluded_from(q.scene, child, &mut consts, &bray, query, q.stats) {
+                            let (mut rq, bray) = RayQuery::with_box4(q.scene, &ray, q.stats);
+                            if self.occluded_from(&mut rq, child, &bray, light.lane(k)) {
                                 found |= 1 << k;
                             }
                         }

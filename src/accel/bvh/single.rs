@@ -16,14 +16,18 @@ use glam::Vec4;
 use std::mem::MaybeUninit;
 use std::ops::Range;
 
-/// The per-ray constants of a scalar traversal: the primitive tests' and `BoxRay`'s
-/// values (the same IEEE quotients as their own constructors, so the same bits), with the triangle test's computed at the first
-/// triangle leaf: most camera rays of `bunny` miss the mesh's box, and the axis choice,
-/// its two divisions and the pool pointers they select cost ~100 instructions a ray
-/// (callgrind). 1/dx, 1/dy, 1/dz and 1/(d·d) are one vector divide. Shadow rays
-/// (`Bvh::light_visible`) share them between the light's own hit and the occluders.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct RayConsts<'r> {
+/// What one ray's traversal carries down to its leaf loops: the scene, the counts of the
+/// work done, and the ray's constants of the primitive tests and `BoxRay` (the same IEEE
+/// quotients as their own constructors, so the same bits), the triangle test's computed
+/// at the first triangle leaf: most camera rays of `bunny` miss the mesh's box, and the
+/// axis choice, its two divisions and the pool pointers they select cost ~100
+/// instructions a ray (callgrind). 1/dx, 1/dy, 1/dz and 1/(d·d) are one vector divide.
+/// Shadow rays (`Bvh::light_visible`) share them between the light's own hit and the
+/// occluders.
+#[derive(Debug)]
+pub(crate) struct RayQuery<'r, 's> {
+    pub(crate) scene: &'r Scene,
+    pub(crate) stats: &'s mut TraversalStats,
     /// Borrowed, not copied: a copy was stored in pieces and read back whole, a failed
     /// store-to-load forward on every ray (perf: 11% of the `bunny` camera-ray time).
     ray: &'r Ray,
@@ -31,18 +35,26 @@ pub(crate) struct RayConsts<'r> {
     triangle: Option<WatertightRay>,
 }
 
-impl<'r> RayConsts<'r> {
-    /// The constants, and the box test's for the 4-wide tree (which the lanes a packet
-    /// finishes alone traverse).
+impl<'r, 's> RayQuery<'r, 's> {
+    /// The query, and the box test's constants for the 4-wide tree (which the lanes a
+    /// packet finishes alone traverse).
     #[inline(always)]
-    pub(crate) fn with_box4(ray: &'r Ray) -> (RayConsts<'r>, BoxRay) {
-        let (consts, q) = Self::with_reciprocals(ray);
-        (consts, BoxRay::from_inv(ray, q.truncate()))
+    pub(crate) fn with_box4(
+        scene: &'r Scene,
+        ray: &'r Ray,
+        stats: &'s mut TraversalStats,
+    ) -> (Self, BoxRay) {
+        let (rq, q) = Self::with_reciprocals(scene, ray, stats);
+        (rq, BoxRay::from_inv(ray, q.truncate()))
     }
 
-    /// The constants and (1/dx, 1/dy, 1/dz, 1/(d·d)).
+    /// The query and (1/dx, 1/dy, 1/dz, 1/(d·d)).
     #[inline(always)]
-    pub(crate) fn with_reciprocals(ray: &'r Ray) -> (RayConsts<'r>, Vec4) {
+    pub(crate) fn with_reciprocals(
+        scene: &'r Scene,
+        ray: &'r Ray,
+        stats: &'s mut TraversalStats,
+    ) -> (Self, Vec4) {
         let d = ray.dir;
         let a = d.dot(d);
         let q = Vec4::ONE / Vec4::new(d.x, d.y, d.z, a);
@@ -52,12 +64,14 @@ impl<'r> RayConsts<'r> {
             a,
             inv_a: q.w,
         };
-        let consts = RayConsts {
+        let rq = RayQuery {
+            scene,
+            stats,
             ray,
             sphere,
             triangle: None,
         };
-        (consts, q)
+        (rq, q)
     }
 
     #[inline(always)]
@@ -186,34 +200,34 @@ impl Closest {
     #[inline(never)]
     pub(crate) fn range(
         &mut self,
-        scene: &Scene,
+        rq: &mut RayQuery<'_, '_>,
         kind: PrimKind,
         range: Range<usize>,
-        consts: &mut RayConsts<'_>,
         t_min: f32,
     ) {
+        let scene = rq.scene;
         let mut start = range.start;
         match kind {
             PrimKind::Sphere => {
                 let s = &scene.spheres;
                 while start < range.end {
                     let n = (range.end - start).min(4);
-                    let (t, mask) = s.intersect4(start, n, &consts.sphere, t_min, self.t_max);
+                    let (t, mask) = s.intersect4(start, n, &rq.sphere, t_min, self.t_max);
                     self.offer_lanes(&t, mask, start, &s.id, kind);
                     start += n;
                 }
             }
             PrimKind::Quad => {
-                let (q, ray) = (&scene.quads, consts.ray);
+                let (q, ray) = (&scene.quads, rq.ray);
                 for i in range {
-                    let w = || *consts.triangle();
+                    let w = || *rq.triangle();
                     if let Some(t) = q.intersect_lazy(i, ray, w, t_min, self.t_max) {
                         self.offer(t, q.id[i], kind, i);
                     }
                 }
             }
             PrimKind::Triangle => {
-                let tri = *consts.triangle();
+                let tri = *rq.triangle();
                 let cols = scene.triangles.columns(tri.axes);
                 while start < range.end {
                     let n = (range.end - start).min(4);
@@ -236,7 +250,7 @@ impl Bvh {
         t_max: f32,
         stats: &mut TraversalStats,
     ) -> Option<Hit> {
-        let (mut consts, q) = RayConsts::with_reciprocals(ray);
+        let (mut rq, q) = RayQuery::with_reciprocals(scene, ray, stats);
         let mut c = Closest::new(t_max, &None);
         // The tree first, the spheres beside it after: their test (a square root and a
         // division) then does not delay the root's box test, which would wait for the
@@ -246,41 +260,25 @@ impl Bvh {
             // The box constants only for a tree (`mixed`, `spheres` and `quads` have
             // none: 1.3% of `mixed`'s scalar render made them for nothing, callgrind).
             let bray = BoxRay8::from_inv(ray, q);
-            traverse::<_, STACK8>(
-                &self.nodes8,
-                scene,
-                root,
-                &mut consts,
-                &bray,
-                t_min,
-                &mut c,
-                stats,
-            );
+            traverse::<_, STACK8>(&self.nodes8, &mut rq, root, &bray, t_min, &mut c);
         }
-        self.linear_kinds(scene, &mut consts, t_min, &mut c, stats);
+        self.linear_kinds(&mut rq, t_min, &mut c);
         c.hit(scene)
     }
 
     /// The kinds beside the tree: the spheres pre-packed eight an `f32x8` (the bunny scene's
     /// three in one pass), quads and triangles out of line.
     #[inline(always)]
-    fn linear_kinds(
-        &self,
-        scene: &Scene,
-        consts: &mut RayConsts<'_>,
-        t_min: f32,
-        c: &mut Closest,
-        stats: &mut TraversalStats,
-    ) {
+    fn linear_kinds(&self, rq: &mut RayQuery<'_, '_>, t_min: f32, c: &mut Closest) {
         let spheres = &self.linear[0];
         let n = spheres.len();
         if n > 0 {
-            stats.prims += n as u64;
+            rq.stats.prims += n as u64;
             // `SpherePool::intersect4` on the pre-packed lanes (`pack_spheres` packs
             // exactly `linear[0]`).
             debug_assert_eq!(self.linear_spheres.len(), n.div_ceil(SPHERE_GROUP));
-            let s = &scene.spheres;
-            let r = &consts.sphere;
+            let s = &rq.scene.spheres;
+            let r = &rq.sphere;
             for (g, lanes) in self.linear_spheres.iter().enumerate() {
                 let (t, mask) = lanes.intersect(r, t_min, c.t_max);
                 // A larger `t_max` than the scan's for the group's later spheres gives
@@ -292,32 +290,25 @@ impl Bvh {
         match self.beside {
             Beside::OneQuad => {
                 let q = &self.one_quad;
-                stats.prims += 1;
-                let ray = consts.ray;
-                let w = || *consts.triangle();
+                rq.stats.prims += 1;
+                let ray = rq.ray;
+                let w = || *rq.triangle();
                 if let Some(t) = q.intersect_lazy(ray, w, t_min, c.t_max) {
                     c.offer(t, q.id, PrimKind::Quad, q.index);
                 }
             }
             Beside::Nothing => {}
-            Beside::Pools => self.linear_quads_triangles(scene, consts, t_min, c, stats),
+            Beside::Pools => self.linear_quads_triangles(rq, t_min, c),
         }
     }
 
     #[inline(never)]
-    fn linear_quads_triangles(
-        &self,
-        scene: &Scene,
-        consts: &mut RayConsts<'_>,
-        t_min: f32,
-        c: &mut Closest,
-        stats: &mut TraversalStats,
-    ) {
+    fn linear_quads_triangles(&self, rq: &mut RayQuery<'_, '_>, t_min: f32, c: &mut Closest) {
         if !self.linear[1].is_empty() {
-            stats.prims += self.linear[1].len() as u64;
-            let (q, ray) = (&scene.quads, consts.ray);
+            rq.stats.prims += self.linear[1].len() as u64;
+            let (q, ray) = (&rq.scene.quads, rq.ray);
             for group in &self.linear_quads {
-                let w = || *consts.triangle();
+                let w = || *rq.triangle();
                 if group.is_single() {
                     let i = group.indices().start;
                     if let Some(t) = q.intersect_lazy(i, ray, w, t_min, c.t_max) {
@@ -331,30 +322,27 @@ impl Bvh {
         }
         let range = self.linear[2].clone();
         if !range.is_empty() {
-            stats.prims += range.len() as u64;
-            c.range(scene, PrimKind::Triangle, range, consts, t_min);
+            rq.stats.prims += range.len() as u64;
+            c.range(rq, PrimKind::Triangle, range, t_min);
         }
     }
 
     /// Closest hit in the subtree `root` (a node or leaf code), improving on `best` and
     /// shrinking `t_max`. The packet traversal finishes lanes with it.
-    #[allow(clippy::too_many_arguments)]
     #[inline]
     pub(crate) fn closest_hit_from(
         &self,
-        scene: &Scene,
+        rq: &mut RayQuery<'_, '_>,
         root: u32,
-        consts: &mut RayConsts<'_>,
         bray: &BoxRay,
         t_min: f32,
         t_max: &mut f32,
         best: &mut Option<Hit>,
-        stats: &mut TraversalStats,
     ) {
         let mut c = Closest::new(*t_max, best);
-        traverse::<_, STACK4>(&self.nodes, scene, root, consts, bray, t_min, &mut c, stats);
+        traverse::<_, STACK4>(&self.nodes, rq, root, bray, t_min, &mut c);
         *t_max = c.t_max;
-        if let Some(h) = c.hit(scene) {
+        if let Some(h) = c.hit(rq.scene) {
             *best = Some(h);
         }
     }
@@ -368,8 +356,8 @@ impl Bvh {
         query: ShadowQuery,
         stats: &mut TraversalStats,
     ) -> bool {
-        let (mut consts, q) = RayConsts::with_reciprocals(ray);
-        self.occluded_consts(scene, &mut consts, q, query, stats)
+        let (mut rq, q) = RayQuery::with_reciprocals(scene, ray, stats);
+        self.occluded_consts(&mut rq, q, query)
     }
 
     /// The original program's shadow test (`Accel::light_visible`): the light's own
@@ -386,13 +374,13 @@ impl Bvh {
         light: &Light,
         stats: &mut TraversalStats,
     ) -> bool {
-        let (mut consts, q) = RayConsts::with_reciprocals(ray);
+        let (mut rq, q) = RayQuery::with_reciprocals(scene, ray, stats);
         let own = match light.shape {
             LightShape::Point { center, radius } => {
-                sphere_intersect_with(center, radius, &consts.sphere, t_min, f32::INFINITY)
+                sphere_intersect_with(center, radius, &rq.sphere, t_min, f32::INFINITY)
                     .map(|t| (t, light.first_id))
             }
-            _ => light.nearest_hit_watertight(ray, consts.triangle(), t_min),
+            _ => light.nearest_hit_watertight(ray, rq.triangle(), t_min),
         };
         let Some((t_light, id_light)) = own else {
             return false;
@@ -403,44 +391,32 @@ impl Bvh {
             id_light,
             object: light.object,
         };
-        !self.occluded_consts(scene, &mut consts, q, query, stats)
+        !self.occluded_consts(&mut rq, q, query)
     }
 
     /// `occluded` with the ray's constants and reciprocals `q` (`with_reciprocals`)
     /// made: beside the tree, then through the 8-wide tree (fewer nodes a ray than the
     /// 4-wide one, as for closest hits), whose box constants are made only then.
     #[inline(always)]
-    fn occluded_consts(
-        &self,
-        scene: &Scene,
-        consts: &mut RayConsts<'_>,
-        q: Vec4,
-        query: ShadowQuery,
-        stats: &mut TraversalStats,
-    ) -> bool {
-        if self.occluded_beside(scene, consts, query, stats) {
+    fn occluded_consts(&self, rq: &mut RayQuery<'_, '_>, q: Vec4, query: ShadowQuery) -> bool {
+        if self.occluded_beside(rq, query) {
             return true;
         }
         let Some(root) = self.root8 else { return false };
-        let bray = BoxRay8::from_inv(consts.ray, q);
-        occluded_in::<_, STACK8>(&self.nodes8, scene, root, consts, &bray, query, stats)
+        let bray = BoxRay8::from_inv(rq.ray, q);
+        occluded_in::<_, STACK8>(&self.nodes8, rq, root, &bray, query)
     }
 
     /// `occluded` among the primitives beside the tree: the spheres and the quads eight
     /// at a time (the packed groups of `linear_kinds`), the triangles by the scan.
     #[inline(always)]
-    fn occluded_beside(
-        &self,
-        scene: &Scene,
-        consts: &mut RayConsts<'_>,
-        query: ShadowQuery,
-        stats: &mut TraversalStats,
-    ) -> bool {
+    fn occluded_beside(&self, rq: &mut RayQuery<'_, '_>, query: ShadowQuery) -> bool {
         let ShadowQuery { t_min, t_light, .. } = query;
+        let scene = rq.scene;
         let spheres = &self.linear[0];
         if !spheres.is_empty() {
-            stats.prims += spheres.len() as u64;
-            let (s, r) = (&scene.spheres, &consts.sphere);
+            rq.stats.prims += spheres.len() as u64;
+            let (s, r) = (&scene.spheres, &rq.sphere);
             for (g, lanes) in self.linear_spheres.iter().enumerate() {
                 let (t, mask) = lanes.intersect(r, t_min, t_light);
                 let first = spheres.start + SPHERE_GROUP * g;
@@ -455,9 +431,9 @@ impl Bvh {
             Beside::Nothing => return false,
             Beside::OneQuad => {
                 let q = &self.one_quad;
-                stats.prims += 1;
-                let ray = consts.ray;
-                let w = || *consts.triangle();
+                rq.stats.prims += 1;
+                let ray = rq.ray;
+                let w = || *rq.triangle();
                 return q.object != query.object
                     && q.intersect_lazy(ray, w, t_min, t_light)
                         .is_some_and(|t| query.beats_light(t, q.id));
@@ -465,11 +441,11 @@ impl Bvh {
             Beside::Pools => {}
         }
         if !self.linear[1].is_empty() {
-            stats.prims += self.linear[1].len() as u64;
-            let (q, ray) = (&scene.quads, consts.ray);
+            rq.stats.prims += self.linear[1].len() as u64;
+            let (q, ray) = (&scene.quads, rq.ray);
             for group in &self.linear_quads {
                 let first = group.indices().start;
-                let w = || *consts.triangle();
+                let w = || *rq.triangle();
                 if group.is_single() {
                     let hit = q.intersect_lazy(first, ray, w, t_min, t_light);
                     if hit.is_some_and(|t| query.occludes(t, q.id[first], q.object[first])) {
@@ -487,9 +463,9 @@ impl Bvh {
         }
         let range = self.linear[2].clone();
         if !range.is_empty() {
-            stats.prims += range.len() as u64;
+            rq.stats.prims += range.len() as u64;
             let mut cols = None;
-            if occludes_range(scene, PrimKind::Triangle, range, consts, &mut cols, query) {
+            if occludes_range(rq, PrimKind::Triangle, range, &mut cols, query) {
                 return true;
             }
         }
@@ -502,14 +478,12 @@ impl Bvh {
     #[inline(never)]
     pub(crate) fn occluded_from(
         &self,
-        scene: &Scene,
+        rq: &mut RayQuery<'_, '_>,
         root: u32,
-        consts: &mut RayConsts<'_>,
         bray: &BoxRay,
         query: ShadowQuery,
-        stats: &mut TraversalStats,
     ) -> bool {
-        occluded_in::<_, STACK4>(&self.nodes, scene, root, consts, bray, query, stats)
+        occluded_in::<_, STACK4>(&self.nodes, rq, root, bray, query)
     }
 }
 
@@ -519,23 +493,21 @@ impl Bvh {
 #[inline(always)]
 fn occluded_in<N: Wide, const C: usize>(
     tree: &[N],
-    scene: &Scene,
+    rq: &mut RayQuery<'_, '_>,
     root: u32,
-    consts: &mut RayConsts<'_>,
     bray: &N::Ray,
     query: ShadowQuery,
-    stats: &mut TraversalStats,
 ) -> bool {
     // The triangle columns in this ray's axis order, at the first triangle leaf.
     let mut cols = None;
     if root & LEAF != 0 {
-        return leaf_occludes(scene, root, consts, &mut cols, query, stats);
+        return leaf_occludes(rq, root, &mut cols, query);
     }
     let mut slots = MaybeUninit::<[u32; C]>::uninit();
     let mut stack = TraversalStack::new(&mut slots);
     let mut code = root;
     loop {
-        stats.nodes += 1;
+        rq.stats.nodes += 1;
         let node = &tree[code as usize];
         let (_, mut mask) = node.test(bray, query.t_min, query.t_light);
         while mask != 0 {
@@ -544,7 +516,7 @@ fn occluded_in<N: Wide, const C: usize>(
             let child = node.child(i);
             if child & LEAF == 0 {
                 stack.push(child);
-            } else if leaf_occludes(scene, child, consts, &mut cols, query, stats) {
+            } else if leaf_occludes(rq, child, &mut cols, query) {
                 return true;
             }
         }
@@ -557,18 +529,16 @@ fn occluded_in<N: Wide, const C: usize>(
 
 /// `occludes_range` on the leaf `code`'s primitives.
 #[inline(always)]
-fn leaf_occludes<'s>(
-    scene: &'s Scene,
+fn leaf_occludes<'r>(
+    rq: &mut RayQuery<'r, '_>,
     code: u32,
-    consts: &mut RayConsts<'_>,
-    cols: &mut Option<Columns<'s>>,
+    cols: &mut Option<Columns<'r>>,
     query: ShadowQuery,
-    stats: &mut TraversalStats,
 ) -> bool {
     let (kind, start, count) = decode_leaf(code);
-    stats.prims += count as u64;
+    rq.stats.prims += count as u64;
     let range = start as usize..(start + count) as usize;
-    occludes_range(scene, kind, range, consts, cols, query)
+    occludes_range(rq, kind, range, cols, query)
 }
 
 /// Does a primitive in `range` occlude by `query`'s rule? Spheres and quads one at a
@@ -576,14 +546,14 @@ fn leaf_occludes<'s>(
 /// through the columns `cols` of the ray's axis order (looked up at the ray's first
 /// triangle leaf).
 #[inline(always)]
-fn occludes_range<'s>(
-    scene: &'s Scene,
+fn occludes_range<'r>(
+    rq: &mut RayQuery<'r, '_>,
     kind: PrimKind,
     range: Range<usize>,
-    consts: &mut RayConsts<'_>,
-    cols: &mut Option<Columns<'s>>,
+    cols: &mut Option<Columns<'r>>,
     query: ShadowQuery,
 ) -> bool {
+    let scene = rq.scene;
     let ShadowQuery {
         t_min,
         t_light,
@@ -597,7 +567,7 @@ fn occludes_range<'s>(
             let s = &scene.spheres;
             for i in range {
                 if s.object[i] != object
-                    && s.intersect(i, &consts.sphere, t_min, t_light)
+                    && s.intersect(i, &rq.sphere, t_min, t_light)
                         .is_some_and(|t| query.beats_light(t, s.id[i]))
                 {
                     return true;
@@ -606,10 +576,10 @@ fn occludes_range<'s>(
             false
         }
         PrimKind::Quad => {
-            let (q, ray) = (&scene.quads, consts.ray);
+            let (q, ray) = (&scene.quads, rq.ray);
             for i in range {
                 if q.object[i] != object
-                    && q.intersect_lazy(i, ray, || *consts.triangle(), t_min, t_light)
+                    && q.intersect_lazy(i, ray, || *rq.triangle(), t_min, t_light)
                         .is_some_and(|t| query.beats_light(t, q.id[i]))
                 {
                     return true;
@@ -619,7 +589,7 @@ fn occludes_range<'s>(
         }
         PrimKind::Triangle => {
             let tri = &scene.triangles;
-            let w = *consts.triangle();
+            let w = *rq.triangle();
             let cols = cols.get_or_insert_with(|| tri.columns(w.axes));
             let mut start = range.start;
             while start < range.end {
@@ -643,18 +613,16 @@ fn occludes_range<'s>(
 /// The scalar closest-hit traversal. The current node stays in a register: of the
 /// children a node's box test hits, the nearest is visited next and only the others
 /// are pushed (farthest first), so a node with one hit child costs no push or pop.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn traverse<N: Wide, const C: usize>(
     tree: &[N],
-    scene: &Scene,
+    rq: &mut RayQuery<'_, '_>,
     root: u32,
-    consts: &mut RayConsts<'_>,
     bray: &N::Ray,
     t_min: f32,
     c: &mut Closest,
-    stats: &mut TraversalStats,
 ) {
+    let scene = rq.scene;
     // As a root popped from the stack at entry t_min would be.
     if t_min > c.t_max {
         return;
@@ -703,12 +671,12 @@ fn traverse<N: Wide, const C: usize>(
             let (kind, start, count) = decode_leaf(code);
             prims += count as u64;
             if kind == PrimKind::Triangle {
-                let tri = *consts.triangle();
+                let tri = *rq.triangle();
                 let cols = cols.get_or_insert_with(|| scene.triangles.columns(tri.axes));
                 c.triangles4(scene, start as usize, count as usize, &tri, cols, t_min);
             } else {
                 let range = start as usize..(start + count) as usize;
-                c.range(scene, kind, range, consts, t_min);
+                c.range(rq, kind, range, t_min);
             }
         }
         // Pop the next node still nearer than the best hit.
@@ -720,6 +688,6 @@ fn traverse<N: Wide, const C: usize>(
         }
         break;
     }
-    stats.nodes += nodes;
-    stats.prims += prims;
+    rq.stats.nodes += nodes;
+    rq.stats.prims += prims;
 }
