@@ -1,0 +1,635 @@
+//! `compile`: a scene description checked value by value and turned into the
+//! render-ready `Scene` (boxes into quads, meshes into triangles, ids in file order).
+
+use super::desc::{AspectDesc, MaterialDesc, ObjectDesc, SceneDesc};
+use super::input::ReadError;
+use super::limits::{SampleBound, MAX_CAMERA_COORDINATE};
+use super::{
+    builtin, desc, input, limits, mesh, Features, Light, LightShape, Overrides, Scene, SceneSource,
+    MAX_PIXELS, MAX_SUBDIVIDE,
+};
+use crate::budget::{Budget, MemoryEstimate, OBJ_BYTES_PER_FILE_BYTE};
+use crate::camera::{image_height, Camera, Lens};
+use crate::error::{Error, Result};
+use crate::geometry::quad::{box_faces, Quad};
+use crate::geometry::triangle::is_proper_triangle;
+use crate::geometry::{Aabb, QuadPool, SpherePool, TrianglePool};
+use crate::material::{Material, Phong};
+use glam::{DVec3, Vec3};
+use std::borrow::Cow;
+use std::collections::HashMap;
+
+/// Check values and build the render-ready scene, within the machine's free memory
+/// (`Budget::machine`).
+pub fn compile(source: &SceneSource, desc: &SceneDesc, overrides: Overrides) -> Result<Scene> {
+    compile_within(source, desc, overrides, Budget::machine())
+}
+
+/// `compile` within `budget`: the image, the geometry and the BVH it will need are
+/// estimated before they are made (a mesh before it is read and before it is
+/// subdivided), and a larger estimate is an `OutOfMemory` error.
+pub fn compile_within(
+    source: &SceneSource,
+    desc: &SceneDesc,
+    overrides: Overrides,
+    budget: Budget,
+) -> Result<Scene> {
+    let err = |offset: usize, msg: String| source.error_at(offset, msg);
+
+    // Camera. The file's values are checked even where a flag replaces them.
+    let default_camera = desc::CameraDesc::default();
+    let (cam, cam_at) = match &desc.camera {
+        Some(c) => (c.get_ref(), c.span().start),
+        None => (&default_camera, 0),
+    };
+    let in_range = |key: &str, v: i64, max: i64| -> Result<i64> {
+        if (1..=max).contains(&v) {
+            Ok(v)
+        } else {
+            Err(err(cam_at, format!("{key} must be 1 to {max}, got {v}")))
+        }
+    };
+    in_range("camera width", cam.width, 65_536)?;
+    in_range("samples_per_pixel", cam.samples_per_pixel, 1 << 20)?;
+    in_range("max_depth", cam.max_depth, 10_000)?;
+    let width = in_range(
+        "camera width",
+        overrides.width.map_or(cam.width, i64::from),
+        65_536,
+    )? as u32;
+    let spp = in_range(
+        "samples_per_pixel",
+        overrides.spp.map_or(cam.samples_per_pixel, i64::from),
+        1 << 20,
+    )? as u32;
+    let max_depth = in_range(
+        "max_depth",
+        overrides.max_depth.map_or(cam.max_depth, i64::from),
+        10_000,
+    )? as u32;
+    let aspect = match &cam.aspect_ratio {
+        AspectDesc::Ratio(r) => *r,
+        AspectDesc::Text(t) => parse_aspect(t).ok_or_else(|| {
+            err(
+                cam_at,
+                format!("camera aspect_ratio must be a number or \"W:H\", got \"{t}\""),
+            )
+        })?,
+    };
+    if !(aspect.is_finite() && aspect > 0.0) {
+        return Err(err(
+            cam_at,
+            format!("camera aspect_ratio must be positive, got {aspect}"),
+        ));
+    }
+    let height = match &cam.aspect_ratio {
+        // "W:H" is exact in integers: 800 at 16:9 is 450. Up to 2^36, so kept in u64.
+        AspectDesc::Text(t) => {
+            let (w, h) = parse_aspect_parts(t).unwrap_or((1, 1));
+            (width as u64 * h / w).max(1)
+        }
+        AspectDesc::Ratio(_) => image_height(width, aspect) as u64,
+    };
+    if height > 65_536 || width as u64 * height > MAX_PIXELS {
+        return Err(err(
+            cam_at,
+            format!(
+                "image {width}x{height} is too large (at most 65536 a side, {MAX_PIXELS} pixels)"
+            ),
+        ));
+    }
+    let height = height as u32;
+    // The film is the first large allocation.
+    let mut estimate = MemoryEstimate::image(width as u64 * height as u64);
+    budget.check(
+        &estimate,
+        &format!("{}: a {width}x{height} image", source.display),
+    )?;
+    if !(cam.vfov.is_finite() && cam.vfov > 0.0 && cam.vfov < 180.0) {
+        return Err(err(
+            cam_at,
+            format!("vfov must be between 0 and 180 degrees, got {}", cam.vfov),
+        ));
+    }
+    for (key, v) in [
+        ("look_from", cam.look_from),
+        ("look_at", cam.look_at),
+        ("up", cam.up),
+    ] {
+        if !v.0.iter().all(|x| x.is_finite()) {
+            return Err(err(
+                cam_at,
+                format!("camera {key} must be finite, got {:?}", v.0),
+            ));
+        }
+    }
+    // The lens: a bad value is reported where it is set.
+    let value = |v: &Option<toml::Spanned<f64>>, default| {
+        v.as_ref()
+            .map_or((default, cam_at), |v| (*v.get_ref(), v.span().start))
+    };
+    let (defocus_angle, angle_at) = value(&cam.defocus_angle, Lens::PINHOLE.defocus_angle);
+    if !(0.0..180.0).contains(&defocus_angle) {
+        return Err(err(
+            angle_at,
+            format!("camera defocus_angle must be at least 0 and below 180 degrees, got {defocus_angle}"),
+        ));
+    }
+    let (focus_dist, focus_at) = value(&cam.focus_dist, Lens::PINHOLE.focus_dist);
+    if !(focus_dist.is_finite() && focus_dist > 0.0) {
+        return Err(err(
+            focus_at,
+            format!("camera focus_dist must be finite and positive, got {focus_dist}"),
+        ));
+    }
+    let lens = Lens {
+        focus_dist,
+        defocus_angle,
+    };
+    if let Some(x) = cam
+        .look_from
+        .0
+        .iter()
+        .find(|x| x.abs() > MAX_CAMERA_COORDINATE)
+    {
+        return Err(err(
+            cam_at,
+            format!(
+                "camera look_from {:?}: {x:e} is too large: the camera must lie within ±{MAX_CAMERA_COORDINATE:e} on every axis (its rays are made in f32; move the scene nearer the origin)",
+                cam.look_from.0
+            ),
+        ));
+    }
+    let camera = Camera::new(
+        width,
+        height,
+        cam.vfov,
+        DVec3::from(cam.look_from.0),
+        DVec3::from(cam.look_at.0),
+        DVec3::from(cam.up.0),
+        lens,
+    )
+    .ok_or_else(|| {
+        err(cam_at, "camera look_from and look_at must differ, and up must not be parallel to the view direction".into())
+    })?;
+    check_focus(&camera, lens).map_err(|msg| err(focus_at, msg))?;
+    let extent = limits::camera_extent(&camera);
+    if extent.is_nan() || extent > MAX_CAMERA_COORDINATE {
+        return Err(err(
+            cam_at,
+            format!(
+                "camera image plane reaches {extent:.3e}: the camera and its image plane (focus_dist in front of look_from, default 1, as wide as vfov makes it) must lie within ±{MAX_CAMERA_COORDINATE:e} on every axis (its rays are made in f32; narrow vfov or shorten focus_dist)"
+            ),
+        ));
+    }
+
+    // Background and ambient.
+    let mut bound = SampleBound::default();
+    let colour = |c: &Option<toml::Spanned<desc::V3>>, key: &str| -> Result<(Vec3, usize)> {
+        match c {
+            None => Ok((Vec3::ZERO, 0)),
+            Some(s) => limits::colour(key, *s.get_ref())
+                .map(|c| (c, s.span().start))
+                .map_err(|msg| err(s.span().start, msg)),
+        }
+    };
+    let (background, background_at) = colour(&desc.background, "background")?;
+    let (ambient, _) = colour(&desc.ambient, "ambient")?;
+    bound.end(
+        background.max_element() as f64,
+        background_at,
+        format!("background {}", show(background)),
+    );
+
+    // Materials.
+    let mut materials = Vec::new();
+    let mut material_index = HashMap::new();
+    let mut material_at = Vec::new();
+    for (name, m) in &desc.materials {
+        let at = m.span().start;
+        let material = compile_material(m.get_ref())
+            .map_err(|msg| err(at, format!("material '{name}': {msg}")))?;
+        material_index.insert(name.as_str(), materials.len() as u32);
+        materials.push(material);
+        material_at.push((name.as_str(), at));
+    }
+
+    // Objects.
+    let mut spheres = SpherePool::default();
+    let mut quads = QuadPool::default();
+    let mut triangles = TrianglePool::default();
+    let mut object_material = Vec::new();
+    let mut lights = Vec::new();
+    let mut bounds = Aabb::EMPTY;
+    let mut next_id = 0u32;
+    let mut degenerate_triangles = 0;
+    for (object, o) in desc.objects.iter().enumerate() {
+        let at = o.span().start;
+        let o = o.get_ref();
+        let object = object as u32;
+        let what = format!("object {} ({})", object + 1, o.kind_name());
+        let oerr = |msg: String| err(at, format!("{what}: {msg}"));
+        let &m = material_index.get(o.material()).ok_or_else(|| {
+            let mut names: Vec<_> = material_index.keys().copied().collect();
+            names.sort_unstable();
+            oerr(format!(
+                "unknown material '{}' (materials: {})",
+                o.material(),
+                names.join(", ")
+            ))
+        })?;
+        object_material.push(m);
+        let light_radiance = match materials[m as usize] {
+            Material::Light { color, intensity } => Some(color * intensity),
+            _ => None,
+        };
+        let first_id = next_id;
+        let mut id = || {
+            next_id += 1;
+            next_id - 1
+        };
+        let shape = match o {
+            ObjectDesc::Sphere { center, radius, .. } => {
+                let center = limits::point("center", *center).map_err(oerr)?;
+                let radius = limits::positive("radius", *radius).map_err(oerr)?;
+                spheres.push(center, radius, id(), object);
+                let b = spheres.bounds(spheres.len() - 1);
+                limits::derived_points("center ± radius", &[b.min, b.max]).map_err(oerr)?;
+                bounds = bounds.union(b);
+                LightShape::Point { center, radius }
+            }
+            ObjectDesc::Quad { corner, u, v, .. } => {
+                let corner = limits::point("corner", *corner).map_err(oerr)?;
+                let u = limits::point("u", *u).map_err(oerr)?;
+                let v = limits::point("v", *v).map_err(oerr)?;
+                let q = Quad::new(corner, u, v).ok_or_else(|| {
+                    oerr("zero area: u and v must be non-zero and not parallel".into())
+                })?;
+                limits::derived_points("corner + u + v", &q.vertices).map_err(oerr)?;
+                // The edge test sees the vertices rounded to f32: far from the origin a
+                // small quad's collapse onto a line (a 4-unit quad at z = 1e10).
+                let [a, b, c, d] = q.vertices;
+                if !(is_proper_triangle([a, b, c]) && is_proper_triangle([a, c, d])) {
+                    return Err(oerr(format!(
+                        "zero area in f32: the corners round to {} (u and v too small for \
+                         the quad's distance from the origin)",
+                        show_points(&q.vertices)
+                    )));
+                }
+                quads.push(&q, id(), object);
+                bounds = bounds.union(q.bounds());
+                LightShape::Quads(vec![q])
+            }
+            ObjectDesc::Triangle { a, b, c, .. } => {
+                let tri = [
+                    limits::point("a", *a).map_err(oerr)?,
+                    limits::point("b", *b).map_err(oerr)?,
+                    limits::point("c", *c).map_err(oerr)?,
+                ];
+                if !is_proper_triangle(tri) {
+                    return Err(oerr("zero area: the vertices are collinear".into()));
+                }
+                triangles.push(tri, id(), object);
+                bounds = bounds.union(Aabb::from_points(&tri));
+                LightShape::Triangles(vec![tri])
+            }
+            ObjectDesc::Box { corners, .. } => {
+                let [p, q] = corners[..] else {
+                    return Err(oerr(format!(
+                        "corners must be two points, got {}",
+                        corners.len()
+                    )));
+                };
+                let p = limits::point("corners", p).map_err(oerr)?;
+                let q = limits::point("corners", q).map_err(oerr)?;
+                let (min, max) = (p.min(q), p.max(q));
+                if !(min.cmplt(max).all()) {
+                    return Err(oerr("the two corners must differ on every axis".into()));
+                }
+                let faces = box_faces(min, max);
+                for f in &faces {
+                    quads.push(f, id(), object);
+                }
+                bounds = bounds.union(Aabb::new(min, max));
+                LightShape::Quads(faces)
+            }
+            ObjectDesc::Mesh {
+                path, subdivide, ..
+            } => {
+                if *subdivide > MAX_SUBDIVIDE {
+                    return Err(oerr(format!(
+                        "subdivide must be 0 to {MAX_SUBDIVIDE}, got {subdivide}"
+                    )));
+                }
+                let (display, text) =
+                    read_mesh(source, path, &estimate, budget).map_err(|e| match e {
+                        Error::Io { path: p, source: s } => {
+                            oerr(format!("cannot read mesh {p}: {s}"))
+                        }
+                        other => other,
+                    })?;
+                let mut mesh = mesh::parse_obj(&display, &text)?;
+                drop(text);
+                degenerate_triangles += mesh.degenerate;
+                // What the subdivided mesh will cost, before it is made.
+                let count = (mesh.triangles.len() as u64).saturating_mul(1 << (2 * subdivide));
+                let mut after = estimate;
+                after.add_primitives(0, 0, count, true);
+                if light_radiance.is_some() {
+                    after.add_light_triangles(count);
+                }
+                let subdivided = if *subdivide > 0 {
+                    format!(", subdivided {subdivide} times")
+                } else {
+                    String::new()
+                };
+                budget.check(&after, &format!("{display}: {count} triangles{subdivided}"))?;
+                if *subdivide > 0 {
+                    mesh.triangles = crate::generate::subdivide_times(&mesh.triangles, *subdivide);
+                    // Midpoints round to f32: far from the origin a small child may
+                    // collapse onto a line, and is dropped like a degenerate face.
+                    let before = mesh.triangles.len();
+                    mesh.triangles.retain(|&t| is_proper_triangle(t));
+                    degenerate_triangles += before - mesh.triangles.len();
+                    if mesh.triangles.is_empty() {
+                        return Err(oerr(format!(
+                            "{display}: no usable triangles after subdividing (each rounds \
+                             to zero area in f32)"
+                        )));
+                    }
+                }
+                for &tri in &mesh.triangles {
+                    triangles.push(tri, id(), object);
+                    bounds = bounds.union(Aabb::from_points(&tri));
+                }
+                LightShape::Triangles(mesh.triangles)
+            }
+        };
+        // Running totals (a mesh's were added above, before it was made).
+        match o {
+            ObjectDesc::Sphere { .. } => estimate.add_primitives(1, 0, 0, true),
+            ObjectDesc::Quad { .. } => estimate.add_primitives(0, 1, 0, true),
+            ObjectDesc::Triangle { .. } => estimate.add_primitives(0, 0, 1, true),
+            ObjectDesc::Box { .. } => estimate.add_primitives(0, 6, 0, true),
+            ObjectDesc::Mesh { .. } => {
+                let n = (next_id - first_id) as u64;
+                estimate.add_primitives(0, 0, n, true);
+                if light_radiance.is_some() {
+                    estimate.add_light_triangles(n);
+                }
+            }
+        }
+        if let Some(radiance) = light_radiance {
+            lights.push(Light {
+                object,
+                radiance,
+                shape,
+                first_id,
+            });
+        }
+    }
+    if next_id == u32::MAX {
+        return Err(err(0, "too many primitives".into()));
+    }
+
+    // The largest value a sample can take, against f32's range.
+    for light in &lights {
+        // In f64: color · intensity may overflow f32 (refused below).
+        if let Material::Light { color, intensity } =
+            materials[object_material[light.object as usize] as usize]
+        {
+            bound.light(
+                color.max_element() as f64 * intensity as f64,
+                light.samples(),
+            );
+        }
+    }
+    for (material, (name, at)) in materials.iter().zip(&material_at) {
+        let named = |what: &str| format!("{what} of material '{name}'");
+        match *material {
+            Material::Phong(p) | Material::PhongMirror { phong: p, .. } => bound.phong(
+                ambient.max_element() as f64,
+                p.albedo.max_element() as f64,
+                p.shininess as f64,
+                p.ka as f64,
+                p.kd as f64,
+                p.ks as f64,
+                *at,
+                &format!(
+                    "Phong shading of material '{name}' (the lights' radiance times their samples sums to {:.3e})",
+                    bound.light_sum
+                ),
+            ),
+            Material::Diffuse { albedo } | Material::Metal { albedo, .. } => {
+                let a = albedo.max_element() as f64;
+                bound.end(a, *at, named(&format!("albedo {}", show(albedo))));
+                bound.path_albedo(a, *at, &named(&format!("albedo {}", show(albedo))));
+            }
+            Material::Dielectric { .. } => bound.end(1.0, *at, named("white")),
+            Material::Light { color, intensity } => {
+                bound.end(
+                    color.max_element() as f64,
+                    *at,
+                    named(&format!("color {}", show(color))),
+                );
+                bound.end(
+                    color.max_element() as f64 * intensity as f64,
+                    *at,
+                    named("color · intensity"),
+                );
+            }
+        }
+    }
+    bound
+        .check(spp, max_depth)
+        .map_err(|(at, msg)| err(at, msg))?;
+
+    let features = Features {
+        has_spheres: !spheres.is_empty(),
+        has_quads: !quads.is_empty(),
+        has_triangles: !triangles.is_empty(),
+        has_point_lights: lights.iter().any(Light::is_point),
+        has_area_lights: lights.iter().any(|l| !l.is_point()),
+        has_mirror: materials
+            .iter()
+            .any(|m| matches!(m, Material::PhongMirror { .. })),
+        has_path_traced: materials.iter().any(Material::is_path_traced),
+    };
+
+    Ok(Scene {
+        name: source.name.clone(),
+        description: desc.description.clone(),
+        camera,
+        spp,
+        max_depth,
+        background,
+        ambient,
+        spheres,
+        quads,
+        triangles,
+        materials,
+        object_material,
+        lights,
+        features,
+        bounds,
+        degenerate_triangles,
+    })
+}
+
+/// The smallest `focus_dist`, relative to the camera's largest coordinate C (`look_from`
+/// and the lens disk's reach): f32 numbers near C are at most 2⁻²³·C apart, so the
+/// viewport, at least `focus_dist` from every lens point, stays 8 such steps away and no
+/// camera ray's direction rounds to zero. (With the default `focus_dist = 1`, any
+/// `look_from` within ±2²⁰.)
+pub const MIN_FOCUS_RELATIVE: f64 = 1.0 / (1 << 20) as f64;
+
+/// The smallest `focus_dist` at all: the viewport's f32 values stay normal numbers.
+pub const MIN_FOCUS: f64 = 1e-20;
+
+/// The f32 camera is finite and its viewport far enough from its lens for f32
+/// (`MIN_FOCUS_RELATIVE`, `MIN_FOCUS`).
+fn check_focus(camera: &Camera, lens: Lens) -> Result<(), String> {
+    let reach = camera.origin.abs() + camera.lens_u.abs() + camera.lens_v.abs();
+    let parts = [
+        camera.corner,
+        camera.pixel_du,
+        camera.pixel_dv,
+        camera.lens_u,
+        camera.lens_v,
+    ];
+    if !parts.iter().all(|v| v.is_finite()) || !reach.is_finite() {
+        return Err(format!(
+            "camera focus_dist {} and defocus_angle {} make the viewport or the lens too large for f32",
+            lens.focus_dist, lens.defocus_angle
+        ));
+    }
+    let least = (reach.max_element() as f64 * MIN_FOCUS_RELATIVE).max(MIN_FOCUS);
+    if lens.focus_dist < least {
+        return Err(format!(
+            "camera focus_dist must be at least {least:e} here (2^-20 of the camera's largest coordinate, and 1e-20), got {}",
+            lens.focus_dist
+        ));
+    }
+    Ok(())
+}
+
+/// A colour as the file would write it (`Debug` writes 3e38, where `Display` writes
+/// 39 digits).
+fn show(c: Vec3) -> String {
+    format!("[{:?}, {:?}, {:?}]", c.x, c.y, c.z)
+}
+
+fn parse_aspect_parts(t: &str) -> Option<(u64, u64)> {
+    let (w, h) = t.split_once(':')?;
+    let (w, h) = (w.trim().parse::<u64>().ok()?, h.trim().parse::<u64>().ok()?);
+    (w > 0 && h > 0 && w <= 1 << 20 && h <= 1 << 20).then_some((w, h))
+}
+
+fn parse_aspect(t: &str) -> Option<f64> {
+    parse_aspect_parts(t).map(|(w, h)| w as f64 / h as f64)
+}
+
+/// The mesh text: an embedded asset for a built-in scene, else a file relative to the
+/// scene file, whose loading must fit the budget beside `estimate`.
+fn read_mesh(
+    source: &SceneSource,
+    path: &str,
+    estimate: &MemoryEstimate,
+    budget: Budget,
+) -> Result<(String, Cow<'static, str>)> {
+    match &source.dir {
+        None => builtin::asset(path)
+            .map(|t| (format!("{path} (built-in)"), Cow::Borrowed(t)))
+            .ok_or_else(|| Error::Io {
+                path: path.to_string(),
+                source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such built-in asset"),
+            }),
+        Some(dir) => {
+            let full = dir.join(path);
+            let display = full.display().to_string();
+            if let Ok(size) = input::check_file(&full, input::MAX_MESH_BYTES, "mesh") {
+                let mut loading = *estimate;
+                loading.loading = size.saturating_mul(OBJ_BYTES_PER_FILE_BYTE);
+                budget.check(&loading, &format!("{display} ({size} bytes)"))?;
+            }
+            let text =
+                input::read_text(&full, input::MAX_MESH_BYTES, "mesh").map_err(|e| match e {
+                    ReadError::Io(source) => Error::Io {
+                        path: display.clone(),
+                        source,
+                    },
+                    ReadError::Utf8 { line, column, byte } => Error::Obj {
+                        path: display.clone(),
+                        line,
+                        message: format!("column {column}: {}", ReadError::utf8_message(byte)),
+                    },
+                })?;
+            Ok((display, Cow::Owned(text)))
+        }
+    }
+}
+
+fn compile_material(m: &MaterialDesc) -> Result<Material, String> {
+    use super::limits::{colour, non_negative, positive};
+    let phong = |albedo, shininess, ka, kd, ks| -> Result<Phong, String> {
+        Ok(Phong {
+            albedo: colour("albedo", albedo)?,
+            shininess: non_negative("shininess", shininess)?,
+            ka: non_negative("ka", ka)?,
+            kd: non_negative("kd", kd)?,
+            ks: non_negative("ks", ks)?,
+        })
+    };
+    Ok(match *m {
+        MaterialDesc::Phong {
+            albedo,
+            shininess,
+            ka,
+            kd,
+            ks,
+        } => Material::Phong(phong(albedo, shininess, ka, kd, ks)?),
+        MaterialDesc::PhongMirror {
+            albedo,
+            shininess,
+            index,
+            ka,
+            kd,
+            ks,
+        } => Material::PhongMirror {
+            phong: phong(albedo, shininess, ka, kd, ks)?,
+            index: positive("index", index)?,
+        },
+        MaterialDesc::Diffuse { albedo } => Material::Diffuse {
+            albedo: colour("albedo", albedo)?,
+        },
+        MaterialDesc::Metal { albedo, fuzz } => Material::Metal {
+            albedo: colour("albedo", albedo)?,
+            fuzz: non_negative("fuzz", fuzz)?.min(1.0),
+        },
+        MaterialDesc::Dielectric { index } => Material::Dielectric {
+            index: positive("index", index)?,
+        },
+        MaterialDesc::Light { color, intensity } => Material::Light {
+            color: colour("color", color)?,
+            intensity: non_negative("intensity", intensity)?,
+        },
+    })
+}
+
+/// Points as the renderer sees them, for messages: `[-2, -3, 1e10], [2, -3, 1e10]`.
+fn show_points(points: &[Vec3]) -> String {
+    let show = |p: &Vec3| format!("[{}, {}, {}]", p.x, p.y, p.z);
+    points.iter().map(show).collect::<Vec<_>>().join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn aspect_text() {
+        assert_eq!(parse_aspect_parts("16:9"), Some((16, 9)));
+        assert_eq!(parse_aspect_parts("16/9"), None);
+        assert_eq!(parse_aspect_parts("0:9"), None);
+    }
+}
