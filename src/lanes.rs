@@ -10,6 +10,10 @@
 //! - one NaN rule for `min`/`max`, the SSE one: `a.min(b)` is `if a < b { a } else { b }`,
 //!   so a NaN in either operand yields `b` (the box test relies on it to drop 0·∞);
 //! - the same operand order everywhere (`V3::dot` is `(x·x + y·y) + z·z`, as glam's).
+//!
+//! One file past 700 lines (a quarter of it the tests): the trait and its three
+//! implementations must keep the rules above together, operation by operation; split,
+//! a difference between the widths would hide in the seam.
 
 pub mod math;
 

@@ -11,6 +11,9 @@
 //! them on SIGINT and SIGTERM, then lets the signal end the process. SIGKILL cannot be
 //! caught; what it leaves carries the dead process's id, and `remove_stale_temporaries`
 //! removes such files once no process has that id.
+//!
+//! One file past 700 lines (230 of them tests): the encoders and the atomic, cleaned-up
+//! writing of their files are one guarantee (never a half-written or stray file).
 
 use crate::error::{Error, Result};
 use crate::render::Film;

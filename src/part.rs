@@ -13,6 +13,9 @@
 //! `head -n 2 FILE` shows everything but the pixels. The readers take bytes:
 //! `parse_header` checks the header alone, `parse_part` the header and the pixels'
 //! length and SHA-256; neither trusts a length it has not checked against the data.
+//!
+//! One file past 700 lines (a sixth of it tests): the writer and the checking readers
+//! of one format, kept together so they cannot drift apart.
 
 use crate::error::{Error, Result};
 use crate::integrator::RayCounts;

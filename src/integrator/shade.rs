@@ -15,6 +15,9 @@
 //! random numbers of lane k are those of the scalar path of its pixel, and the budget
 //! of bounces and reflections is `max_depth − vertex` for all. Every lane computes what
 //! the scalar tracer computes for its pixel: the image is the same bits at every width.
+//!
+//! One file of just over 700 lines (40 of them tests): the one shading control flow,
+//! read from top to bottom.
 
 use super::scatter::{scatter_lanes, ScatterLanes};
 use super::{
