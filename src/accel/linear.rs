@@ -16,7 +16,8 @@ pub struct LinearScan {
 }
 
 /// An object's triangles: the runs of consecutive pool indices they fill (one for a
-/// mesh as the scene compiles it), and their box.
+/// mesh as the scene compiles it), their number (the runs' lengths summed, kept so a
+/// ray does not sum them) and their box.
 #[derive(Clone, Debug)]
 struct TriangleGroup {
     runs: Vec<Range<usize>>,

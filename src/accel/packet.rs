@@ -37,15 +37,15 @@ pub struct RayPacket<L: Lane> {
     /// reported.
     pub active: u32,
     pub(crate) origin: V3<L>,
-    pub(crate) dir: V3<L>,
+    dir: V3<L>,
     pub(crate) inv_near: [L; 3],
     pub(crate) inv_far: [L; 3],
     /// Per axis: every lane's direction has this sign (then the box planes need no
     /// per-lane select).
-    pub(crate) uniform_sign: [Option<bool>; 3],
-    pub(crate) negative: [L::Mask; 3],
-    pub(crate) sphere_a: L,
-    pub(crate) sphere_inv_a: L,
+    uniform_sign: [Option<bool>; 3],
+    negative: [L::Mask; 3],
+    sphere_a: L,
+    sphere_inv_a: L,
     /// When every axis has a uniform sign: the rows of `Node4` (as `[[f32; 4]; 8]`)
     /// holding each axis' near and far planes, as `BoxRay` picks them, so a child's box
     /// test is six broadcast loads with no per-axis select.
@@ -157,7 +157,7 @@ impl<L: Lane> RayPacket<L> {
     /// divisions a packet. Inlined into `LazyTriangles::make`, which stores them in
     /// place: returned, they were copied twice (`OnceCell`), a 450-byte memcpy each.
     #[inline(always)]
-    pub(crate) fn triangle_lanes<'a>(
+    fn triangle_lanes<'a>(
         &self,
         pool: &'a TrianglePool,
         quads: bool,
@@ -282,7 +282,7 @@ impl<L: Lane> RayPacket<L> {
     /// The lanes `redo` of `quad_light_hits`, one at a time with the scalar test.
     #[cold]
     #[inline(never)]
-    pub(crate) fn redo_light_quad(&self, q: &Quad, t_min: f32, redo: u32) -> (L, u32) {
+    fn redo_light_quad(&self, q: &Quad, t_min: f32, redo: u32) -> (L, u32) {
         let mut out = [0.0; MAX_WIDTH];
         let mut bits = 0;
         for j in set_lanes(redo) {
@@ -301,7 +301,7 @@ impl<L: Lane> RayPacket<L> {
     /// (`tris`), only for the lanes that meet the plane in `[t_min, t_max]`. Both masks
     /// are empty when none does.
     #[inline(always)]
-    pub(crate) fn quad(
+    fn quad(
         &self,
         tris: &mut LazyTriangles<'_, L>,
         q: &[[f32; 3]; 4],
@@ -324,11 +324,7 @@ impl<L: Lane> RayPacket<L> {
     /// the packet loops cost `bunny`, which has no quad, 1.3% more render instructions
     /// (8 wide, callgrind).
     #[inline(never)]
-    pub(crate) fn quad_edges(
-        tris: &mut LazyTriangles<'_, L>,
-        q: &[[f32; 3]; 4],
-        near: u32,
-    ) -> (u32, u32) {
+    fn quad_edges(tris: &mut LazyTriangles<'_, L>, q: &[[f32; 3]; 4], near: u32) -> (u32, u32) {
         // A scene with quads always gets the lanes; `None` would redo every lane.
         match tris.get(PrimKind::Quad) {
             Some(tri) => tri.quad_edges(q, near),
@@ -420,7 +416,7 @@ impl<L: Lane> RayPacket<L> {
     /// lanes order the axes differently, are tested one lane at a time by the scalar test.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    pub(crate) fn test_prim(
+    fn test_prim(
         &self,
         scene: &Scene,
         kind: PrimKind,
@@ -503,7 +499,7 @@ impl<L: Lane> RayPacket<L> {
     /// callgrind).
     #[cold]
     #[inline(never)]
-    pub(crate) fn redo_lanes(
+    fn redo_lanes(
         &self,
         scene: &Scene,
         kind: PrimKind,
@@ -556,7 +552,7 @@ impl<L: Lane> TriangleLanes<'_, L> {
     /// the vertices `q`: the lanes that pass through the quad, and those that the scalar
     /// test must redo (an outer edge function exactly zero; not in the first mask).
     #[inline(always)]
-    pub(crate) fn quad_edges(&self, q: &[[f32; 3]; 4], lanes: u32) -> (u32, u32) {
+    fn quad_edges(&self, q: &[[f32; 3]; 4], lanes: u32) -> (u32, u32) {
         let v = match &self.order {
             Order::Uniform([kx, ky, kz], _) => {
                 // `& 3`: the axes are 0..2; the mask drops the bounds checks.
@@ -610,7 +606,7 @@ pub(crate) struct LazyTriangles<'a, L: Lane> {
 
 impl<'a, L: Lane> LazyTriangles<'a, L> {
     #[inline(always)]
-    pub(crate) fn new(packet: &'a RayPacket<L>, scene: &'a Scene) -> Self {
+    fn new(packet: &'a RayPacket<L>, scene: &'a Scene) -> Self {
         Self {
             packet,
             tri: &scene.triangles,
@@ -623,7 +619,7 @@ impl<'a, L: Lane> LazyTriangles<'a, L> {
     /// The watertight lanes for a triangle or quad test (`None` for spheres, or when the
     /// lanes order the axes differently in a scene without quads).
     #[inline(always)]
-    pub(crate) fn get(&mut self, kind: PrimKind) -> Option<&TriangleLanes<'a, L>> {
+    fn get(&mut self, kind: PrimKind) -> Option<&TriangleLanes<'a, L>> {
         if kind == PrimKind::Sphere {
             return None;
         }
@@ -634,7 +630,7 @@ impl<'a, L: Lane> LazyTriangles<'a, L> {
     }
 
     #[inline(never)]
-    pub(crate) fn make(&mut self) {
+    fn make(&mut self) {
         self.lanes = self.packet.triangle_lanes(self.tri, self.quads);
         self.made = true;
     }

@@ -307,7 +307,7 @@ impl Bvh {
         for (k, &kind) in PrimKind::ALL.iter().enumerate() {
             let range = self.linear[k].clone();
             // (Not for an empty range: an empty pool must not make the watertight
-            // lanes, `tris.get`.)
+            // lanes, `LazyTriangles::get`.)
             if range.is_empty() {
                 continue;
             }

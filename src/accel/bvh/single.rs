@@ -26,7 +26,7 @@ use std::ops::Range;
 /// occluders.
 #[derive(Debug)]
 pub(crate) struct RayQuery<'r, 's> {
-    pub(crate) scene: &'r Scene,
+    scene: &'r Scene,
     pub(crate) stats: &'s mut TraversalStats,
     /// Borrowed, not copied: a copy was stored in pieces and read back whole, a failed
     /// store-to-load forward on every ray (perf: 11% of the `bunny` camera-ray time).
