@@ -76,6 +76,11 @@ pub trait Lane:
     /// Lane `i` is `f(i)`.
     fn from_fn(f: impl FnMut(usize) -> f32) -> Self;
     fn lane(self, i: usize) -> f32;
+    /// Every lane set to lane `i`'s value.
+    #[inline(always)]
+    fn broadcast(self, i: usize) -> Self {
+        Self::splat(self.lane(i))
+    }
     /// `m ? a : b`, lane by lane.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
     fn lt(self, o: Self) -> Self::Mask;
@@ -329,6 +334,21 @@ impl Lane for Vec4 {
     fn lane(self, i: usize) -> f32 {
         self[i]
     }
+    /// One `vpermilps` with AVX.
+    #[inline(always)]
+    fn broadcast(self, i: usize) -> Self {
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+        {
+            use std::arch::x86_64::{__m128, _mm_permutevar_ps, _mm_set1_epi32};
+            let v: __m128 = self.into();
+            // SAFETY: AVX is enabled (cfg above); a register permute of lanes.
+            Vec4::from(unsafe { _mm_permutevar_ps(v, _mm_set1_epi32(i as i32 & 3)) })
+        }
+        #[cfg(not(all(target_arch = "x86_64", target_feature = "avx")))]
+        {
+            Vec4::splat(self[i])
+        }
+    }
     #[inline(always)]
     fn select(m: BVec4A, a: Self, b: Self) -> Self {
         Vec4::select(m, a, b)
@@ -495,6 +515,22 @@ impl Lane for f32x8 {
     #[inline(always)]
     fn lane(self, i: usize) -> f32 {
         self.as_array_ref()[i]
+    }
+    /// One `vpermps` with AVX2 (a variable lane read goes through memory).
+    #[inline(always)]
+    fn broadcast(self, i: usize) -> Self {
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        {
+            use std::arch::x86_64::{__m256, _mm256_permutevar8x32_ps, _mm256_set1_epi32};
+            let v: __m256 = bytemuck::cast(self);
+            // SAFETY: AVX2 is enabled (cfg above); a register permute of lanes.
+            let r = unsafe { _mm256_permutevar8x32_ps(v, _mm256_set1_epi32(i as i32 & 7)) };
+            bytemuck::cast(r)
+        }
+        #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
+        {
+            Self::splat(self.lane(i))
+        }
     }
     #[inline(always)]
     fn select(m: Mask8, a: Self, b: Self) -> Self {
@@ -689,6 +725,34 @@ mod tests {
             assert_eq!(x.reduce_min().to_bits(), min.to_bits(), "{v:?}");
             assert_eq!(x.reduce_max().to_bits(), max.to_bits(), "{v:?}");
         }
+    }
+
+    /// `broadcast(i)` puts lane i's bits in every lane (−0, NaN payloads, subnormals),
+    /// at every width.
+    #[test]
+    fn broadcast_copies_one_lanes_bits() {
+        let bits = [
+            0x8000_0000u32,
+            0x7fc0_1234,
+            0x0000_0001,
+            0x3f80_0000,
+            0xff80_0000,
+            0x4049_0fdb,
+            0x8000_0002,
+            0x7f80_0000,
+        ];
+        fn check<L: Lane>(bits: &[u32; 8]) {
+            let v = L::from_fn(|k| f32::from_bits(bits[k]));
+            for (i, &want) in bits.iter().enumerate().take(L::WIDTH) {
+                let b = v.broadcast(i);
+                for k in 0..L::WIDTH {
+                    assert_eq!(b.lane(k).to_bits(), want, "width {} lane {i}", L::WIDTH);
+                }
+            }
+        }
+        check::<f32>(&bits);
+        check::<Vec4>(&bits);
+        check::<f32x8>(&bits);
     }
 
     /// Only the first `width` entries count, and any single differing bit is seen.

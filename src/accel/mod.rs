@@ -36,6 +36,15 @@ fn debug_assert_finite(ray: &Ray) {
     );
 }
 
+/// `debug_assert_finite` of the rays of `lanes` of `p`. Only in debug builds: in release
+/// the empty loop over the lanes stayed in the code.
+#[inline(always)]
+fn debug_assert_lanes_finite<L: Lane>(p: &RayPacket<L>, lanes: u32) {
+    if cfg!(debug_assertions) {
+        set_lanes(lanes).for_each(|k| debug_assert_finite(&p.ray(k)));
+    }
+}
+
 /// Which acceleration structure to build. Both give the same image, bit for bit.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum AccelKind {
@@ -225,7 +234,7 @@ impl Accel {
         t_min: f32,
         stats: &mut TraversalStats,
     ) -> PacketHits<L> {
-        set_lanes(p.active).for_each(|k| debug_assert_finite(&p.ray(k)));
+        debug_assert_lanes_finite(p, p.active);
         match self {
             Accel::Linear(l) => {
                 let mut hits = PacketHits::none(p.active);
@@ -251,7 +260,7 @@ impl Accel {
         stats: &mut TraversalStats,
     ) -> u32 {
         let lanes = lanes & p.active;
-        set_lanes(lanes).for_each(|k| debug_assert_finite(&p.ray(k)));
+        debug_assert_lanes_finite(p, lanes);
         match self {
             Accel::Linear(_) => {
                 let mut visible = 0;
@@ -285,7 +294,7 @@ impl Accel {
             Accel::Linear(_) => self.light_visible_packet(scene, p, t_min, light, lanes, stats),
             Accel::Bvh(b) => {
                 let lanes = lanes & p.active;
-                set_lanes(lanes).for_each(|k| debug_assert_finite(&p.ray(k)));
+                debug_assert_lanes_finite(p, lanes);
                 b.light_visible_packet(scene, p, t_min, light, lanes, Some(among), stats)
             }
         }

@@ -92,7 +92,14 @@ impl<L: Lane> RayPacket<L> {
         }
         let first = active.trailing_zeros() as usize;
         let m = L::Mask::from_bits(active);
-        let fill = |v: V3<L>| V3::select(m, v, V3::splat(v.lane(first)));
+        let fill = |v: V3<L>| {
+            let copy = V3::new(
+                v.x.broadcast(first),
+                v.y.broadcast(first),
+                v.z.broadcast(first),
+            );
+            V3::select(m, v, copy)
+        };
         Self::from_lanes(fill(origin), fill(dir), active)
     }
 
