@@ -18,7 +18,7 @@ use raytracer::integrator::{PhongLanes, RayCounts, SurfaceLanes, Tracer};
 use raytracer::lanes::{Lane, V3};
 use raytracer::material::Material;
 use raytracer::render::render;
-use raytracer::rng::{KeyLanes, Sampler, SamplerKind};
+use raytracer::sampling::{KeyLanes, Sampler, SamplerKind};
 use raytracer::scene::{Overrides, Scene};
 use raytracer::{PacketWidth, RenderSettings};
 use std::hint::black_box;

@@ -39,7 +39,6 @@
 
 mod error;
 mod film;
-mod region;
 mod renderer;
 mod settings;
 
@@ -47,48 +46,54 @@ pub use accel::AccelKind;
 #[doc(hidden)]
 pub use error::one_line;
 pub use error::{Error, Result};
+pub use farm::merge::{merge_parts, merge_parts_within, Merged};
+pub use farm::part::Part;
+pub use farm::region::{Rect, Region};
 pub use film::Film;
 pub use glam::Vec3;
 pub use integrator::RayCounts;
-pub use merge::{merge_parts, merge_parts_within, Merged};
-pub use part::Part;
-pub use region::{Rect, Region};
 pub use renderer::{Rendered, Renderer, SceneFile, SceneOptions};
-pub use rng::SamplerKind;
+pub use sampling::SamplerKind;
 pub use settings::{PacketWidth, RenderSettings};
 
 // The internals: public only so that the integration tests, the benchmarks and the probes
 // can check and measure the kernels directly (bit-identity between packet widths,
 // primitives against f64 oracles, the BVH against the linear scan), and so that the
 // command line can print its statistics. Hidden from the documentation and not part of
-// the API: they change without notice.
+// the API: they change without notice. In the order of the data flow (ARCHITECTURE.md):
+
+// The foundations every stage is written over: lanes and the counter-based samplers.
+#[doc(hidden)]
+pub mod lanes;
+#[doc(hidden)]
+pub mod sampling;
+
+// Scene → acceleration structure → integrator → tiles → film and output files.
 #[doc(hidden)]
 pub mod accel;
 #[doc(hidden)]
-pub mod budget;
-#[doc(hidden)]
 pub mod camera;
-#[doc(hidden)]
-pub mod generate;
 #[doc(hidden)]
 pub mod geometry;
 #[doc(hidden)]
 pub mod integrator;
 #[doc(hidden)]
-pub mod lanes;
-#[doc(hidden)]
 pub mod material;
-#[doc(hidden)]
-pub mod merge;
-#[doc(hidden)]
-pub mod metrics;
 #[doc(hidden)]
 pub mod output;
 #[doc(hidden)]
-pub mod part;
-#[doc(hidden)]
 pub mod render;
 #[doc(hidden)]
-pub mod rng;
-#[doc(hidden)]
 pub mod scene;
+
+// A frame in parts, and the memory a run may take.
+#[doc(hidden)]
+pub mod budget;
+#[doc(hidden)]
+pub mod farm;
+
+// Measures and test meshes.
+#[doc(hidden)]
+pub mod generate;
+#[doc(hidden)]
+pub mod metrics;

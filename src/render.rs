@@ -5,12 +5,12 @@
 
 use crate::accel::Accel;
 use crate::error::{Error, Result};
+use crate::farm::region::{Rect, Region};
 pub use crate::film::Film;
 use crate::integrator::{footprint, RayCounts, Tracer};
 use crate::lanes::{Lane, V3};
-use crate::region::{Rect, Region};
 pub use crate::renderer::Rendered;
-use crate::rng::Sampler;
+use crate::sampling::Sampler;
 use crate::scene::Scene;
 pub use crate::settings::{PacketWidth, RenderSettings};
 use glam::{Vec3, Vec4};

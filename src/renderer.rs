@@ -5,10 +5,10 @@
 use crate::accel::{Accel, AccelKind};
 use crate::budget::{Budget, MemoryEstimate};
 use crate::error::Result;
+use crate::farm::part::{self, Part, PixelSettings};
+use crate::farm::region::Region;
 use crate::film::Film;
 use crate::integrator::RayCounts;
-use crate::part::{self, Part, PixelSettings};
-use crate::region::Region;
 use crate::render;
 use crate::scene::desc::SceneDesc;
 use crate::scene::{builtin, compile_within, Overrides, Scene, SceneSource};

@@ -3,7 +3,7 @@
 //! the sampler changes a bit of the image.
 
 use crate::error::{Error, Result};
-use crate::rng::SamplerKind;
+use crate::sampling::SamplerKind;
 use std::fmt;
 use std::str::FromStr;
 

@@ -1120,7 +1120,7 @@ fn tiny_exr_render_is_the_linear_film() {
     let mut scene = raytracer::scene::Scene::load("spheres", o).unwrap();
     let accel = raytracer::accel::Accel::build(&mut scene, raytracer::accel::AccelKind::Bvh);
     let settings = raytracer::render::RenderSettings {
-        sampler: raytracer::rng::SamplerKind::Sobol,
+        sampler: raytracer::sampling::SamplerKind::Sobol,
         ..raytracer::render::RenderSettings::new(0)
     };
     let expected = raytracer::render::render(&scene, &accel, &settings, &|| {})

@@ -10,7 +10,7 @@ use raytracer::accel::{Accel, AccelKind};
 use raytracer::metrics;
 use raytracer::metrics::log_log_slope;
 use raytracer::render::{render, Film, RenderSettings};
-use raytracer::rng::SamplerKind;
+use raytracer::sampling::SamplerKind;
 use raytracer::scene::Scene;
 use support::builtin;
 

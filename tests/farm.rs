@@ -11,7 +11,7 @@ mod support;
 
 use proptest::prelude::*;
 use raytracer::accel::{Accel, AccelKind};
-use raytracer::part;
+use raytracer::farm::part;
 use raytracer::render::{render, render_region};
 use raytracer::{
     merge_parts, PacketWidth, Rect, Region, RenderSettings, Renderer, SamplerKind, SceneFile,

@@ -13,7 +13,7 @@ use raytracer::integrator::T_MIN;
 use raytracer::integrator::{RayCounts, Tracer};
 use raytracer::lanes::Lane;
 use raytracer::render::{render, RenderSettings};
-use raytracer::rng::SamplerKind;
+use raytracer::sampling::SamplerKind;
 use raytracer::scene::builtin::SCENES;
 use raytracer::scene::Scene;
 use raytracer::PacketWidth;

@@ -9,7 +9,7 @@ use raytracer::geometry::spawn::spawn_ray;
 use raytracer::geometry::Ray;
 use raytracer::integrator::{scatter, RayCounts, Tracer};
 use raytracer::material::schlick;
-use raytracer::rng::SampleKey;
+use raytracer::sampling::SampleKey;
 use support::scene_from_toml;
 
 fn close(a: Vec3, b: DVec3, rel: f64) -> bool {

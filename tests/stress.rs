@@ -19,7 +19,7 @@ use raytracer::geometry::sphere::sphere_intersect;
 use raytracer::geometry::{Hit, PrimKind, Ray};
 use raytracer::integrator::{RayCounts, Surface, Tracer, T_MIN};
 use raytracer::material::Material;
-use raytracer::rng::SampleKey;
+use raytracer::sampling::SampleKey;
 use raytracer::scene::{builtin, LightShape, Scene};
 use std::collections::HashMap;
 use support::oracle::{

@@ -12,7 +12,7 @@ use raytracer::geometry::spawn::spawn_ray;
 use raytracer::geometry::Ray;
 use raytracer::integrator::{footprint, Tracer};
 use raytracer::lanes::{Lane, V3};
-use raytracer::rng::{slot, SampleKey};
+use raytracer::sampling::{slot, SampleKey};
 use raytracer::scene::{Overrides, Scene};
 
 /// Built-in scene `name` at 400 px wide and 2 samples a pixel, with its BVH: the small

@@ -7,7 +7,7 @@
 use libfuzzer_sys::fuzz_target;
 use raytracer::budget::Budget;
 use raytracer::merge_parts_within;
-use raytracer::part::{parse_header, parse_part};
+use raytracer::farm::part::{parse_header, parse_part};
 
 fuzz_target!(|data: &[u8]| {
     let header = parse_header(data);

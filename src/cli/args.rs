@@ -3,7 +3,7 @@
 
 use clap::{Parser, Subcommand, ValueEnum};
 use raytracer::accel::AccelKind;
-use raytracer::rng::SamplerKind;
+use raytracer::sampling::SamplerKind;
 use raytracer::{PacketWidth, Rect, Region};
 use std::path::PathBuf;
 

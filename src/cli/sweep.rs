@@ -12,7 +12,7 @@ use raytracer::accel::{Accel, AccelKind};
 use raytracer::metrics::{self, log_log_slope, Errors};
 use raytracer::output;
 use raytracer::render::{self, Film, RenderSettings};
-use raytracer::rng::SamplerKind;
+use raytracer::sampling::SamplerKind;
 use raytracer::scene::{Overrides, Scene};
 use raytracer::PacketWidth;
 use std::fmt::Write as _;

@@ -5,7 +5,7 @@
 //!   samples and shadow rays; `scatter`: the path-traced materials' bounces.
 //! - Here: the tracer, its ray counts, the surfaces of hits, and the geometric kernels
 //!   shading runs on (written over `Lane`; the scalar tracer runs them at `f32`).
-//! - Every random number comes from `rng::KeyLanes`, addressed by path vertex and slot.
+//! - Every random number comes from `sampling::KeyLanes`, addressed by path vertex and slot.
 //!
 //! One file past 700 lines (120 of them tests): the tracer's state and the surface
 //! kernels every shading path calls.
@@ -28,7 +28,7 @@ use crate::geometry::QuadPool;
 use crate::geometry::{Hit, PrimKind, Ray};
 use crate::lanes::{all_equal, Lane, Mask, V3};
 use crate::material::{reflect_lanes, schlick_lanes, Phong};
-use crate::rng::{KeyLanes, SampleKey, Sampler};
+use crate::sampling::{KeyLanes, SampleKey, Sampler};
 use crate::scene::Scene;
 use glam::Vec3;
 

@@ -9,7 +9,7 @@ use crate::geometry::Ray;
 use crate::lanes::math::sin_cos_turns;
 use crate::lanes::{Lane, Mask, V3};
 use crate::material::{reflect_lanes, schlick_lanes, Material};
-use crate::rng::{slot, KeyLanes, SampleKey};
+use crate::sampling::{slot, KeyLanes, SampleKey};
 use glam::Vec3;
 
 /// The path-traced materials of a packet's lanes.

@@ -32,7 +32,7 @@ use crate::geometry::Ray;
 use crate::lanes::math::pow;
 use crate::lanes::{all_equal, Lane, Mask, V3};
 use crate::material::{Material, Phong};
-use crate::rng::{slot, KeyLanes};
+use crate::sampling::{slot, KeyLanes};
 use crate::scene::{Light, Scene};
 use glam::Vec3;
 

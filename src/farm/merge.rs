@@ -9,9 +9,9 @@
 
 use crate::budget::{Budget, MemoryEstimate};
 use crate::error::{Error, Result};
+use crate::farm::part::{self, PartHeader, MAGIC, MAX_HEADER};
+use crate::farm::region::{Rect, Region};
 use crate::film::Film;
-use crate::part::{self, PartHeader, MAGIC, MAX_HEADER};
-use crate::region::{Rect, Region};
 use crate::scene::{input, MAX_PIXELS};
 use std::io::Read;
 use std::path::{Path, PathBuf};

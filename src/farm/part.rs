@@ -18,9 +18,9 @@
 //! of one format, kept together so they cannot drift apart.
 
 use crate::error::{Error, Result};
+use crate::farm::region::{Rect, Region};
 use crate::integrator::RayCounts;
 use crate::output::OutputSet;
-use crate::region::{Rect, Region};
 use crate::render::{RenderedRegion, TILE};
 use crate::scene::{LightShape, Scene, MAX_PIXELS};
 use crate::settings::RenderSettings;
