@@ -150,21 +150,54 @@ fn log2_f64<D: F64Lanes>(x: D) -> D {
     let e = biased - big(D::splat(1022.0), D::splat(1023.0));
     let one = D::splat(1.0);
     let s = (m - one) / (m + one);
-    let s2 = s * s;
-    let mut p = D::splat(1.0 / 15.0);
-    for c in [
-        1.0 / 13.0,
-        1.0 / 11.0,
-        1.0 / 9.0,
-        1.0 / 7.0,
-        1.0 / 5.0,
-        1.0 / 3.0,
-        1.0,
-    ] {
-        p = p * s2 + D::splat(c);
-    }
+    let p = estrin(s * s, &LOG_SERIES);
     let log = e + D::splat(2.0 * std::f64::consts::LOG2_E) * s * p;
     x.eq_select(D::splat(0.0), D::splat(f64::NEG_INFINITY), log)
+}
+
+/// 1 / (2j + 1), j = 0 to 7: the series of atanh(s) / s in s².
+const LOG_SERIES: [f64; 8] = {
+    let mut c = [1.0f64; 8];
+    let mut j = 1;
+    while j < 8 {
+        c[j] = 1.0 / (2 * j + 1) as f64;
+        j += 1;
+    }
+    c
+};
+
+/// Σ c[j]·zʲ by Estrin's scheme: neighbouring terms paired, c[2j] + c[2j+1]·z, then the
+/// pairs paired with z², and so on. The same operations as Horner's rule but in a tree
+/// of depth log₂ N instead of a chain of N steps, so one lane's polynomial (the scalar
+/// tracer's `pow`) does not wait on a multiply-add latency per coefficient. Only `+`
+/// and `×`, in a fixed order: the same bits at every width.
+#[inline(always)]
+fn estrin<D: F64Lanes, const N: usize>(z: D, c: &[f64; N]) -> D {
+    let mut t = [D::splat(0.0); N];
+    let mut n = N;
+    for (j, tj) in t.iter_mut().enumerate().take(N.div_ceil(2)) {
+        *tj = if 2 * j + 1 < N {
+            D::splat(c[2 * j]) + D::splat(c[2 * j + 1]) * z
+        } else {
+            D::splat(c[2 * j])
+        };
+    }
+    n = n.div_ceil(2);
+    let mut zz = z * z;
+    while n > 1 {
+        for j in 0..n.div_ceil(2) {
+            t[j] = if 2 * j + 1 < n {
+                t[2 * j] + t[2 * j + 1] * zz
+            } else {
+                t[2 * j]
+            };
+        }
+        n = n.div_ceil(2);
+        if n > 1 {
+            zz = zz * zz;
+        }
+    }
+    t[0]
 }
 
 /// (ln 2)ʲ / j!, j = 0 to 11: the Taylor coefficients of 2ᶠ = e^(f ln 2).
@@ -211,11 +244,7 @@ fn exp2_f64<D: F64Lanes>(y: D) -> D {
     let t = y + D::splat(ROUND);
     let k = t - D::splat(ROUND);
     let f = y - k;
-    let c = &EXP2_TAYLOR;
-    let mut p = D::splat(c[11]);
-    for j in (0..11).rev() {
-        p = p * f + D::splat(c[j]);
-    }
+    let p = estrin(f, &EXP2_TAYLOR);
     // 2ᵏ: k + 1023 in [823, 1223] is the biased exponent (the low bits of t hold k).
     let scale = D::from_bits((t.to_bits() + D::splat_bits(1023)) << 52);
     p * scale
@@ -249,14 +278,8 @@ impl F64Kernel for SinCosTurns {
         let r = u - q * D::splat(0.25);
         let theta = r * D::splat(std::f64::consts::TAU);
         let th2 = theta * theta;
-        let mut ps = D::splat(SIN_TAYLOR[7]);
-        for j in (0..7).rev() {
-            ps = ps * th2 + D::splat(SIN_TAYLOR[j]);
-        }
-        let mut pc = D::splat(COS_TAYLOR[8]);
-        for j in (0..8).rev() {
-            pc = pc * th2 + D::splat(COS_TAYLOR[j]);
-        }
+        let ps = estrin(th2, &SIN_TAYLOR);
+        let pc = estrin(th2, &COS_TAYLOR);
         let (sin, cos) = (theta * ps, pc);
         // The quadrant q mod 4 from t's low bits: 0 (sin, cos), 1 (cos, −sin),
         // 2 (−sin, −cos), 3 (−cos, sin).
@@ -395,6 +418,36 @@ mod tests {
         for n in [f32::from_bits(1), 1e-3, 1.0, 1e4] {
             assert_eq!(pow(0.0f32, n).to_bits(), 0, "0^{n}");
         }
+    }
+
+    /// Estrin's pairing is the polynomial for every length up to the kernels' 12: with
+    /// integer coefficients and points every operation is exact, so a term paired
+    /// wrongly or dropped changes the value. The four-lane form gives the same values.
+    #[test]
+    fn estrin_is_the_polynomial() {
+        fn check<const N: usize>() {
+            let c: [f64; N] = std::array::from_fn(|j| (j as f64 + 1.0) * [1.0, -1.0][j % 2]);
+            let zs = [-3.0, -1.0, 0.0, 1.0, 2.0, 5.0];
+            for z in zs {
+                let want = c.iter().rev().fold(0.0, |acc, &cj| acc * z + cj);
+                assert_eq!(estrin(z, &c), want, "N = {N}, z = {z}");
+            }
+            let four = estrin(f64x4::from([zs[0], zs[1], zs[4], zs[5]]), &c).to_array();
+            for (got, z) in four.into_iter().zip([zs[0], zs[1], zs[4], zs[5]]) {
+                assert_eq!(got, estrin(z, &c), "N = {N}, z = {z}, four lanes");
+            }
+        }
+        check::<1>();
+        check::<2>();
+        check::<3>();
+        check::<4>();
+        check::<5>();
+        check::<6>();
+        check::<7>();
+        check::<8>();
+        check::<9>();
+        check::<11>();
+        check::<12>();
     }
 
     #[test]
