@@ -4,7 +4,7 @@
 
 use super::{Aabb, Ray};
 use crate::lanes::{Lane, Mask, V3};
-use glam::{Vec3, Vec4};
+use glam::{Vec3, Vec3A, Vec4};
 
 /// Spheres, structure-of-arrays.
 #[derive(Clone, Debug, Default)]
@@ -107,8 +107,8 @@ impl SpherePool {
         let (t, hit) = sphere_distance(
             center,
             load4(&self.radius, start, n),
-            V3::splat(ray.origin),
-            V3::splat(ray.dir),
+            V3::splat(ray.origin.into()),
+            V3::splat(ray.dir.into()),
             Vec4::splat(ray.a),
             Vec4::splat(ray.inv_a),
             Vec4::splat(t_min),
@@ -122,8 +122,11 @@ impl SpherePool {
 /// instead of a division per sphere.
 #[derive(Clone, Copy, Debug)]
 pub struct SphereRay {
-    pub origin: Vec3,
-    pub dir: Vec3,
+    /// 16-byte vectors, each stored and loaded whole: as `Vec3`s, stored a float at a
+    /// time, the tests' loads of two floats at once missed store-to-load forwarding
+    /// (the scalar tracer's shadow and closest-hit tests, perf).
+    pub origin: Vec3A,
+    pub dir: Vec3A,
     pub a: f32,
     pub inv_a: f32,
 }
@@ -133,8 +136,8 @@ impl SphereRay {
     pub fn new(ray: &Ray) -> Self {
         let a = ray.dir.dot(ray.dir);
         Self {
-            origin: ray.origin,
-            dir: ray.dir,
+            origin: ray.origin.into(),
+            dir: ray.dir.into(),
             a,
             inv_a: 1.0 / a,
         }
@@ -171,8 +174,8 @@ pub fn sphere_intersect_with(
     let (t, hit) = sphere_distance(
         V3::splat(center),
         radius,
-        V3::splat(ray.origin),
-        V3::splat(ray.dir),
+        V3::splat(ray.origin.into()),
+        V3::splat(ray.dir.into()),
         ray.a,
         ray.inv_a,
         t_min,

@@ -122,8 +122,8 @@ impl SphereLanes {
         let (t, hit) = sphere_distance(
             self.center,
             self.radius,
-            v(r.origin),
-            v(r.dir),
+            v(r.origin.into()),
+            v(r.dir.into()),
             s(r.a),
             s(r.inv_a),
             s(t_min),

@@ -59,8 +59,8 @@ impl<'r, 's> RayQuery<'r, 's> {
         let a = d.dot(d);
         let q = Vec4::ONE / Vec4::new(d.x, d.y, d.z, a);
         let sphere = SphereRay {
-            origin: ray.origin,
-            dir: d,
+            origin: ray.origin.into(),
+            dir: d.into(),
             a,
             inv_a: q.w,
         };
