@@ -74,16 +74,35 @@ impl<'r, 's> RayQuery<'r, 's> {
         (rq, q)
     }
 
+    /// The ray's watertight constants, made in line at the first quad test that needs
+    /// them. Made out of line (`watertight_ray`) and copied out of its return slot, the
+    /// copy's wide loads read what the callee had just stored a field at a time, which
+    /// store-to-load forwarding does not serve: the scalar `cornell` render took 18%
+    /// longer, `quads` 7% (perf, render phase).
     #[inline(always)]
     fn triangle(&mut self) -> &WatertightRay {
+        let ray = self.ray;
+        self.triangle.get_or_insert_with(|| make_watertight(ray))
+    }
+
+    /// `triangle` made out of line, for the tree's triangle leaves: inlined there it
+    /// made the traversal loop slower (`bunny-closeup`, scalar, 7%).
+    #[inline(always)]
+    fn triangle_at_leaf(&mut self) -> &WatertightRay {
         let ray = self.ray;
         self.triangle.get_or_insert_with(|| watertight_ray(ray))
     }
 }
 
-/// `WatertightRay::new` with its three divisions in one vector divide.
+/// `make_watertight` out of line.
 #[inline(never)]
 fn watertight_ray(ray: &Ray) -> WatertightRay {
+    make_watertight(ray)
+}
+
+/// `WatertightRay::new` with its three divisions in one vector divide.
+#[inline(always)]
+fn make_watertight(ray: &Ray) -> WatertightRay {
     let axes @ [kx, ky, kz] = WatertightRay::axes(ray.dir);
     let d = ray.dir.to_array();
     let o = ray.origin.to_array();
@@ -227,7 +246,7 @@ impl Closest {
                 }
             }
             PrimKind::Triangle => {
-                let tri = *rq.triangle();
+                let tri = *rq.triangle_at_leaf();
                 let cols = scene.triangles.columns(tri.axes);
                 while start < range.end {
                     let n = (range.end - start).min(4);
@@ -589,7 +608,7 @@ fn occludes_range<'r>(
         }
         PrimKind::Triangle => {
             let tri = &scene.triangles;
-            let w = *rq.triangle();
+            let w = *rq.triangle_at_leaf();
             let cols = cols.get_or_insert_with(|| tri.columns(w.axes));
             let mut start = range.start;
             while start < range.end {
@@ -671,7 +690,7 @@ fn traverse<N: Wide, const C: usize>(
             let (kind, start, count) = decode_leaf(code);
             prims += count as u64;
             if kind == PrimKind::Triangle {
-                let tri = *rq.triangle();
+                let tri = *rq.triangle_at_leaf();
                 let cols = cols.get_or_insert_with(|| scene.triangles.columns(tri.axes));
                 c.triangles4(scene, start as usize, count as usize, &tri, cols, t_min);
             } else {
