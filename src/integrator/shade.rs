@@ -387,7 +387,12 @@ impl Tracer<'_> {
                     continue;
                 }
                 let class = t.class[o + 1] as usize;
-                by_class[class] |= lanes;
+                // Every class's mask at a constant index, so the masks stay in
+                // registers (`by_class[class] |= lanes` stored a word at a time and was
+                // read back two words at once, past store-to-load forwarding).
+                for (c, b) in by_class.iter_mut().enumerate() {
+                    *b |= lanes & ((c == class) as u32).wrapping_neg();
+                }
                 if class == PHONG || class == MIRROR {
                     let p = t.phong_of[o + 1];
                     phong = if phong == NO_PHONG || phong == p {
