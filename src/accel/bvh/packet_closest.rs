@@ -252,8 +252,12 @@ impl<L: Lane> PacketHits<L> {
         lanes: u32,
     ) {
         let scene = q.scene;
+        // The best hits in a local copy, written back once: selected into `self` in
+        // place, the compiler made masked stores of them (`vmaskmovps`), slow on AMD
+        // and read back past store-to-load forwarding.
+        let mut best = *self;
         for i in range {
-            let (t, bits) = q.test_prim(kind, i, t_min, self.t, lanes);
+            let (t, bits) = q.test_prim(kind, i, t_min, best.t, lanes);
             if bits == 0 {
                 continue;
             }
@@ -261,21 +265,22 @@ impl<L: Lane> PacketHits<L> {
             // to a hit already found, the smaller id.
             let (id, object) = ids(scene, kind, i);
             let mut win = bits;
-            let tie = t.eq(self.t).bits() & bits & self.found;
+            let tie = t.eq(best.t).bits() & bits & best.found;
             for k in set_lanes(tie) {
-                if !beats((t.lane(k), id), (t.lane(k), self.id.lane(k).to_bits())) {
+                if !beats((t.lane(k), id), (t.lane(k), best.id.lane(k).to_bits())) {
                     win &= !(1 << k);
                 }
             }
             let m = L::Mask::from_bits(win);
             let bits_of = |x: u32| L::splat(f32::from_bits(x));
-            self.t = L::select(m, t, self.t);
-            self.index = L::select(m, bits_of(i as u32), self.index);
-            self.id = L::select(m, bits_of(id), self.id);
-            self.object = L::select(m, bits_of(object), self.object);
-            self.found |= win;
-            self.set_kind(kind, win);
+            best.t = L::select(m, t, best.t);
+            best.index = L::select(m, bits_of(i as u32), best.index);
+            best.id = L::select(m, bits_of(id), best.id);
+            best.object = L::select(m, bits_of(object), best.object);
+            best.found |= win;
+            best.set_kind(kind, win);
         }
+        *self = best;
     }
 }
 
