@@ -1,36 +1,71 @@
 //! Transcendental functions over lanes: `pow` (Phong's specular term) and `sin_cos_turns`
 //! (the azimuth of a random unit vector).
 //!
-//! Each is one scalar `f64` kernel made of `+ − × ÷` and bit manipulation only, run on
-//! every lane. IEEE 754 rounds those operations exactly, so the result does not depend
+//! Each is made of scalar `f64` kernels of `+ − × ÷` and bit manipulation only, run on
+//! every lane (`pow` picks one of two by each lane's exponent). IEEE 754 rounds those operations exactly, so the result does not depend
 //! on the width, and the compiler vectorises the lane loop (no libm call, no branch).
 //! Working in `f64` makes the `f32` results correctly rounded but for values within about
 //! 1e-12 of a rounding boundary: the tests bound the error at one ulp against `f64`
 //! references and count how often it is not zero.
 
-use super::Lane;
+use super::{Lane, Mask};
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Shl, Shr, Sub};
 use wide::{f64x4, u64x4};
 
 /// `x` raised to `n`, lane by lane, for `x ≥ 0` (`+0` included) and finite `n ≥ 0`: what
 /// `powf` gives there, within one ulp (`+0⁰` is 1, `+0ⁿ` is +0, `1ⁿ` is exactly 1, and
 /// results below half the smallest subnormal are +0).
+///
+/// A lane's exponent picks its kernel, so a lane's result depends on its `(x, n)` alone,
+/// at any width: an integer `n` up to `SQUARING_MAX` (every shininess of the built-in
+/// scenes) by repeated squaring in f64 (`PowInt`: at most 2·16 multiplies, against the
+/// logarithm's division and two series), any other by 2^(n·log₂ x) (`Pow`). When every
+/// lane has the same integer exponent (a packet on one material), its bits are read
+/// once, outside the lanes.
 #[inline(always)]
 pub fn pow<L: Lane>(x: L, n: L) -> L {
-    L::map_f64::<Pow>(x, n).0
+    let all = (1u32 << L::WIDTH) - 1;
+    let n0 = n.lane(0);
+    if is_squared(n0) && (L::WIDTH == 1 || n.eq(L::splat(n0)).bits() == all) {
+        return L::map_f64(&PowInt { n: n0 as u32 }, x, n).0;
+    }
+    pow_mixed(x, n)
+}
+
+/// `pow` of lanes whose exponents differ, or are not all integers up to `SQUARING_MAX`:
+/// each lane by its own kernel.
+#[inline(never)]
+fn pow_mixed<L: Lane>(x: L, n: L) -> L {
+    let squared =
+        L::Mask::from_bits((0..L::WIDTH).fold(0, |m, k| m | (is_squared(n.lane(k)) as u32) << k));
+    let general = L::map_f64(&Pow, x, n).0;
+    if squared.bits() == 0 {
+        return general;
+    }
+    let by_squaring = L::map_f64(&PowIntLanes, x, n).0;
+    L::select(squared, by_squaring, general)
+}
+
+/// The largest exponent `pow` raises to by repeated squaring.
+pub const SQUARING_MAX: u32 = 65_535;
+
+/// Whether `pow` raises to `n` by repeated squaring: an integer in [0, SQUARING_MAX].
+#[inline(always)]
+fn is_squared(n: f32) -> bool {
+    (0.0..=SQUARING_MAX as f32).contains(&n) && n == (n as u32) as f32
 }
 
 /// `(sin 2πu, cos 2πu)`, lane by lane, for any finite `u` (turns: 1 is a full circle),
 /// within one ulp of the exact values.
 #[inline(always)]
 pub fn sin_cos_turns<L: Lane>(u: L) -> (L, L) {
-    L::map_f64::<SinCosTurns>(u, u)
+    L::map_f64(&SinCosTurns, u, u)
 }
 
 /// A kernel of two `f64` inputs and two outputs, generic over the lanes it runs on
 /// (`Lane::map_f64` runs it on each width's lanes widened to f64).
 pub trait F64Kernel {
-    fn eval<D: F64Lanes>(a: D, b: D) -> (D, D);
+    fn eval<D: F64Lanes>(&self, a: D, b: D) -> (D, D);
 }
 
 /// Lanes of f64: `f64` (one) and `wide::f64x4` (four), with the operations the kernels
@@ -256,11 +291,58 @@ struct Pow;
 
 impl F64Kernel for Pow {
     #[inline(always)]
-    fn eval<D: F64Lanes>(x: D, n: D) -> (D, D) {
+    fn eval<D: F64Lanes>(&self, x: D, n: D) -> (D, D) {
         let y = n * log2_f64(x);
         let zero = D::splat(0.0);
         let r = exp2_f64(n.eq_select(zero, zero, y));
         (r, r)
+    }
+}
+
+/// `pow` for one integer exponent `n ≤ SQUARING_MAX` in every lane: xⁿ as the product of
+/// the squarings x^(2ʲ) over the set bits j of n, ascending, from 1 (so x⁰ = 1, 0ⁿ = +0
+/// for n ≥ 1, 1ⁿ = 1 exactly). Each product rounds once in f64, at most 2·16 roundings
+/// of 2⁻⁵³: far below an f32 ulp but near a tie, as for `Pow`. Beyond f64's range a
+/// squaring gives +∞ or +0, and so does the exact power in f32.
+struct PowInt {
+    n: u32,
+}
+
+impl F64Kernel for PowInt {
+    #[inline(always)]
+    fn eval<D: F64Lanes>(&self, x: D, _: D) -> (D, D) {
+        let (mut acc, mut p, mut n) = (D::splat(1.0), x, self.n);
+        while n != 0 {
+            if n & 1 != 0 {
+                acc = acc * p;
+            }
+            n >>= 1;
+            if n != 0 {
+                p = p * p;
+            }
+        }
+        (acc, acc)
+    }
+}
+
+/// `PowInt` with each lane's own exponent (an integer up to `SQUARING_MAX`; others give
+/// a value `pow` does not use): the same products in the same order, a lane taking the
+/// squaring x^(2ʲ) where bit j of its exponent is set.
+struct PowIntLanes;
+
+impl F64Kernel for PowIntLanes {
+    #[inline(always)]
+    fn eval<D: F64Lanes>(&self, x: D, n: D) -> (D, D) {
+        let bits = (n + D::splat(TWO_52)).to_bits();
+        let one = D::splat_bits(1);
+        let half = D::splat(0.5);
+        let (mut acc, mut p) = (D::splat(1.0), x);
+        for j in 0..16 {
+            let bit: D = int_to_f64((bits >> j) & one);
+            acc = bit.gt_select(half, acc * p, acc);
+            p = p * p;
+        }
+        (acc, acc)
     }
 }
 
@@ -272,7 +354,7 @@ struct SinCosTurns;
 
 impl F64Kernel for SinCosTurns {
     #[inline(always)]
-    fn eval<D: F64Lanes>(u: D, _: D) -> (D, D) {
+    fn eval<D: F64Lanes>(&self, u: D, _: D) -> (D, D) {
         let t = u * D::splat(4.0) + D::splat(ROUND);
         let q = t - D::splat(ROUND);
         let r = u - q * D::splat(0.25);
@@ -450,11 +532,16 @@ mod tests {
         check::<12>();
     }
 
+    /// Every lane its own exponent (`pow_mixed`), and every lane one exponent (a
+    /// packet on one material: integer exponents read once), give the scalar bits.
     #[test]
     fn pow_gives_the_same_bits_at_every_width() {
         let xs = bases();
         let ns: Vec<f32> = exponents().iter().cycle().take(xs.len()).copied().collect();
         same_at_every_width(&xs, &ns);
+        for n in exponents() {
+            same_at_every_width(&xs[..2048], &vec![n; 2048]);
+        }
     }
 
     /// sin and cos of 2πu are within one ulp of f64's on a fine grid of [0, 1) (every

@@ -134,7 +134,7 @@ pub trait Lane:
     }
     /// `K` on the lanes widened to f64 (exactly), its results rounded to f32: the
     /// transcendental functions of `math`, one kernel for every width.
-    fn map_f64<K: math::F64Kernel>(a: Self, b: Self) -> (Self, Self);
+    fn map_f64<K: math::F64Kernel>(k: &K, a: Self, b: Self) -> (Self, Self);
     /// The smallest lane, for lanes that are not NaN (a NaN lane may or may not be
     /// skipped). A pairwise tree of `a < b ? a : b`, one `minss` each: `f32::min`'s
     /// NaN handling cost three more instructions per lane (callgrind, packet traversal).
@@ -202,8 +202,8 @@ impl Lane for f32 {
     type Mask = bool;
     const WIDTH: usize = 1;
     #[inline(always)]
-    fn map_f64<K: math::F64Kernel>(a: Self, b: Self) -> (Self, Self) {
-        let (x, y) = K::eval(a as f64, b as f64);
+    fn map_f64<K: math::F64Kernel>(k: &K, a: Self, b: Self) -> (Self, Self) {
+        let (x, y) = k.eval(a as f64, b as f64);
         (x as f32, y as f32)
     }
     #[inline(always)]
@@ -318,8 +318,8 @@ impl Lane for Vec4 {
     type Mask = BVec4A;
     const WIDTH: usize = 4;
     #[inline(always)]
-    fn map_f64<K: math::F64Kernel>(a: Self, b: Self) -> (Self, Self) {
-        let (x, y) = K::eval(widen(a.to_array()), widen(b.to_array()));
+    fn map_f64<K: math::F64Kernel>(k: &K, a: Self, b: Self) -> (Self, Self) {
+        let (x, y) = k.eval(widen(a.to_array()), widen(b.to_array()));
         (Vec4::from_array(narrow(x)), Vec4::from_array(narrow(y)))
     }
     #[inline(always)]
@@ -480,11 +480,11 @@ impl Lane for f32x8 {
     type Mask = Mask8;
     const WIDTH: usize = 8;
     #[inline(always)]
-    fn map_f64<K: math::F64Kernel>(a: Self, b: Self) -> (Self, Self) {
+    fn map_f64<K: math::F64Kernel>(k: &K, a: Self, b: Self) -> (Self, Self) {
         let (a, b) = (a.to_array(), b.to_array());
         let half = |v: &[f32; 8], h: usize| widen(std::array::from_fn(|i| v[4 * h + i]));
-        let (x0, y0) = K::eval(half(&a, 0), half(&b, 0));
-        let (x1, y1) = K::eval(half(&a, 1), half(&b, 1));
+        let (x0, y0) = k.eval(half(&a, 0), half(&b, 0));
+        let (x1, y1) = k.eval(half(&a, 1), half(&b, 1));
         let join = |lo: wide::f64x4, hi: wide::f64x4| {
             let (lo, hi) = (narrow(lo), narrow(hi));
             f32x8::new(std::array::from_fn(
