@@ -225,6 +225,18 @@ impl Accel {
         }
     }
 
+    /// Whether a packet's queries test boxes, so its rays need the box constants
+    /// (`RayPacket::from_active_lanes_with`): through a tree. The linear scan tests a
+    /// packet's lanes one ray at a time, and a BVH without a tree (every primitive
+    /// beside it: `spheres`, `quads`, `mixed`) tests none; the shadow candidates' boxes
+    /// (`shadow::ShadowBoxes`) are the caller's to count.
+    pub fn packet_boxes(&self) -> bool {
+        match self {
+            Accel::Linear(_) => false,
+            Accel::Bvh(b) => b.root.is_some(),
+        }
+    }
+
     /// `closest_hit` (from `t_min`, unbounded) for every active lane of a packet.
     #[inline]
     pub fn closest_hit_packet<L: Lane>(

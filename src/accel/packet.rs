@@ -53,6 +53,9 @@ pub struct RayPacket<L: Lane> {
     /// What the packet's rays may hit (`cull`): the closest-hit traversal skips the
     /// rest. `Cull::ALL` unless a caller knows better (`with_cull`).
     pub(crate) cull: Cull,
+    /// The box test's constants (`inv_near`, `inv_far`, the signs, `box_rows`) are
+    /// made. Without (`from_active_lanes_with`), no box may be tested.
+    boxes: bool,
 }
 
 impl<L: Lane> RayPacket<L> {
@@ -86,9 +89,17 @@ impl<L: Lane> RayPacket<L> {
     /// empty): the others get a copy of the first active lane, as `new` gives them.
     #[inline]
     pub fn from_active_lanes(origin: V3<L>, dir: V3<L>, active: u32) -> Self {
+        Self::from_active_lanes_with(origin, dir, active, true)
+    }
+
+    /// `from_active_lanes`, with the box test's constants only if `boxes`: an
+    /// accelerator with no tree and no shadow candidates tests no box (`Accel::
+    /// packet_boxes`), and the constants are three divisions a packet.
+    #[inline]
+    pub fn from_active_lanes_with(origin: V3<L>, dir: V3<L>, active: u32, boxes: bool) -> Self {
         debug_assert!(active != 0 && active < (1 << L::WIDTH));
         if active == (1 << L::WIDTH) - 1 {
-            return Self::from_lanes(origin, dir, active);
+            return Self::from_lanes_with(origin, dir, active, boxes);
         }
         let first = active.trailing_zeros() as usize;
         let m = L::Mask::from_bits(active);
@@ -100,7 +111,7 @@ impl<L: Lane> RayPacket<L> {
             );
             V3::select(m, v, copy)
         };
-        Self::from_lanes(fill(origin), fill(dir), active)
+        Self::from_lanes_with(fill(origin), fill(dir), active, boxes)
     }
 
     /// The rays' origins, lane by lane.
@@ -118,16 +129,38 @@ impl<L: Lane> RayPacket<L> {
     /// A packet from rays already in lanes; every lane, active or not, must hold a
     /// finite ray (inactive lanes are tested but never reported).
     pub fn from_lanes(origin: V3<L>, dir: V3<L>, active: u32) -> Self {
+        Self::from_lanes_with(origin, dir, active, true)
+    }
+
+    #[inline(always)]
+    fn from_lanes_with(origin: V3<L>, dir: V3<L>, active: u32, boxes: bool) -> Self {
+        let one = L::splat(1.0);
+        // SphereRay::new, lane-wise.
+        let sphere_a = dir.dot(dir);
+        if !boxes {
+            let nan = [L::splat(f32::NAN); 3];
+            return Self {
+                active,
+                origin,
+                dir,
+                inv_near: nan,
+                inv_far: nan,
+                uniform_sign: [None; 3],
+                box_rows: None,
+                negative: [L::Mask::from_bits(0); 3],
+                sphere_a,
+                sphere_inv_a: one / sphere_a,
+                cull: Cull::ALL,
+                boxes,
+            };
+        }
         let zero = L::splat(0.0);
         // BoxRay::new, lane-wise. (1/d is never −0, so `< 0` is its sign bit; a NaN
         // direction hits nothing whichever planes it picks.)
-        let one = L::splat(1.0);
         let inv = [one / dir.x, one / dir.y, one / dir.z];
         let (near_scale, far_scale) = (L::splat(NEAR_SCALE), L::splat(FAR_SCALE));
         let negative = inv.map(|x| x.lt(zero));
         let uniform_sign = negative.map(|m| uniform::<L>(m.bits()));
-        // SphereRay::new, lane-wise.
-        let sphere_a = dir.dot(dir);
         Self {
             active,
             origin,
@@ -143,6 +176,7 @@ impl<L: Lane> RayPacket<L> {
             sphere_a,
             sphere_inv_a: one / sphere_a,
             cull: Cull::ALL,
+            boxes,
         }
     }
 
@@ -346,9 +380,13 @@ impl<L: Lane> RayPacket<L> {
     }
 
     /// The lanes whose ray meets `b` in `[t_min, t_max]` (the traversal's conservative
-    /// box test).
+    /// box test); every active lane for a packet made without the box constants.
     #[inline]
     pub fn hits_box(&self, b: &Aabb, t_min: f32, t_max: f32) -> u32 {
+        if !self.boxes {
+            // An early-out only: without the constants, every lane may hit.
+            return self.active;
+        }
         let (_, bits) = self.test_box(
             b.min.to_array(),
             b.max.to_array(),
@@ -375,6 +413,10 @@ impl<L: Lane> RayPacket<L> {
     /// tested).
     #[inline(always)]
     pub(crate) fn test_box(&self, lo: [f32; 3], hi: [f32; 3], t_min: L, t_max: L) -> (L, u32) {
+        debug_assert!(
+            self.boxes,
+            "a box test of a packet made without box constants"
+        );
         let mut near = [L::splat(0.0); 3];
         let mut far = [L::splat(0.0); 3];
         for a in 0..3 {
@@ -396,6 +438,10 @@ impl<L: Lane> RayPacket<L> {
     /// `test_box` of child `c` of `node`.
     #[inline(always)]
     pub(crate) fn test_child(&self, node: &Node4, c: usize, t_min: L, t_max: L) -> (L, u32) {
+        debug_assert!(
+            self.boxes,
+            "a box test of a packet made without box constants"
+        );
         match self.box_rows {
             Some((near_row, far_row)) => {
                 let plane = |r: usize| L::splat(node.row(r)[c & 3]);

@@ -186,6 +186,10 @@ pub struct Tracer<'a> {
     /// (`bunny`'s ground sphere holds the camera).
     /// Skipping an early-out never changes a result, only whether it is taken.
     pub camera_inside: bool,
+    /// Packets test boxes (a tree, or the shadow candidates'): their rays need the box
+    /// constants (`RayPacket::from_active_lanes_with`). Else the packets skip the test
+    /// against the scene's bounds too, an early-out that seldom pays without a tree.
+    pub(crate) packet_boxes: bool,
 }
 
 impl<'a> Tracer<'a> {
@@ -195,6 +199,10 @@ impl<'a> Tracer<'a> {
     }
 
     pub fn with_sampler(scene: &'a Scene, accel: &'a Accel, sampler: Sampler) -> Self {
+        let shadow_boxes = match accel {
+            Accel::Bvh(_) if scene.lights.iter().any(|l| !l.is_point()) => ShadowBoxes::new(scene),
+            _ => None,
+        };
         Self {
             scene,
             accel,
@@ -202,12 +210,8 @@ impl<'a> Tracer<'a> {
             specialize: true,
             tables: shade::ShadeTables::new(scene),
             cull_targets: CullTargets::new(scene, accel),
-            shadow_boxes: match accel {
-                Accel::Bvh(_) if scene.lights.iter().any(|l| !l.is_point()) => {
-                    ShadowBoxes::new(scene)
-                }
-                _ => None,
-            },
+            packet_boxes: accel.packet_boxes() || shadow_boxes.is_some(),
+            shadow_boxes,
             camera_inside: {
                 // Every lens point: the ball of `lens_reach` around the lens's centre.
                 let (o, b) = (scene.camera.origin.as_dvec3(), &scene.bounds);

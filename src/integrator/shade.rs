@@ -332,12 +332,14 @@ impl Tracer<'_> {
             hits.set(0, hit.map_or(f32::INFINITY, |h| h.t), hit);
             return hits;
         }
-        let packet = RayPacket::from_active_lanes(paths.origin, paths.dir, paths.active)
+        let (o, d) = (paths.origin, paths.dir);
+        let packet = RayPacket::from_active_lanes_with(o, d, paths.active, self.packet_boxes)
             .with_cull(camera.unwrap_or(Cull::ALL));
         // A camera inside the scene's box (bunny's ground sphere holds it) needs no box
         // test: every ray meets it. Skipping an early-out never changes a result.
         let inside = camera.is_some() && self.camera_inside;
         if self.specialize
+            && self.packet_boxes
             && !inside
             && packet.hits_box(&scene.bounds, T_MIN, f32::INFINITY) & paths.active == 0
         {
@@ -640,7 +642,7 @@ impl Tracer<'_> {
             return self.accel.light_visible(scene, &ray, T_MIN, light, stats) as u32;
         }
         counts.shadow_packets.record(lanes);
-        let p = RayPacket::<L>::from_active_lanes(origin, l, lanes);
+        let p = RayPacket::<L>::from_active_lanes_with(origin, l, lanes, self.packet_boxes);
         match among {
             Some(c) => self
                 .accel
