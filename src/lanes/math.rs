@@ -2,8 +2,9 @@
 //! (the azimuth of a random unit vector).
 //!
 //! Each is made of scalar `f64` kernels of `+ − × ÷` and bit manipulation only, run on
-//! every lane (`pow` picks one of two by each lane's exponent). IEEE 754 rounds those operations exactly, so the result does not depend
-//! on the width, and the compiler vectorises the lane loop (no libm call, no branch).
+//! every lane (`pow` picks one of two by each lane's exponent). IEEE 754 rounds those
+//! operations exactly, so the result does not depend on the width, and the compiler
+//! vectorises the lane loop (no libm call, no branch).
 //! Working in `f64` makes the `f32` results correctly rounded but for values within about
 //! 1e-12 of a rounding boundary: the tests bound the error at one ulp against `f64`
 //! references and count how often it is not zero.
