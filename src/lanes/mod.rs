@@ -832,23 +832,34 @@ mod tests {
             for half in chunk.chunks(L::WIDTH) {
                 let v = L::from_fn(|i| half[i]);
                 let (up, down) = (v.next_up(), v.next_down());
-                // Towards +1, −1, 0, NaN, −0 and +∞ in turn.
-                let towards = [1.0, -1.0, 0.0, f32::NAN, -0.0, f32::INFINITY, -2.0, 3.0];
-                let t = L::from_fn(|i| towards[i]);
-                let step = v.step_towards(t);
+                // Towards +1, −1, 0, NaN, −0, +∞, −∞ and 3, each lane taking each in turn.
+                let towards = [
+                    1.0,
+                    -1.0,
+                    0.0,
+                    f32::NAN,
+                    -0.0,
+                    f32::INFINITY,
+                    f32::NEG_INFINITY,
+                    3.0,
+                ];
+                for r in 0..towards.len() {
+                    let t = L::from_fn(|i| towards[(i + r) % towards.len()]);
+                    let step = v.step_towards(t);
+                    for (i, &x) in half.iter().enumerate() {
+                        let o = towards[(i + r) % towards.len()];
+                        let want = match o {
+                            o if o > 0.0 => x.next_up(),
+                            o if o < 0.0 => x.next_down(),
+                            _ => x,
+                        };
+                        let w = L::WIDTH;
+                        let got = step.lane(i).to_bits();
+                        assert_eq!(got, want.to_bits(), "{w} step {x:e} towards {o}");
+                    }
+                }
                 for (i, &x) in half.iter().enumerate() {
                     let w = L::WIDTH;
-                    let want = match towards[i] {
-                        o if o > 0.0 => x.next_up(),
-                        o if o < 0.0 => x.next_down(),
-                        _ => x,
-                    };
-                    assert_eq!(
-                        step.lane(i).to_bits(),
-                        want.to_bits(),
-                        "{w} step {x:e} {}",
-                        towards[i]
-                    );
                     assert_eq!(
                         up.lane(i).to_bits(),
                         x.next_up().to_bits(),
