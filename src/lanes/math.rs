@@ -67,6 +67,12 @@ pub fn sin_cos_turns<L: Lane>(u: L) -> (L, L) {
 /// (`Lane::map_f64` runs it on each width's lanes widened to f64).
 pub trait F64Kernel {
     fn eval<D: F64Lanes>(&self, a: D, b: D) -> (D, D);
+    /// `eval` of two sets of lanes (the halves of eight), which a kernel with a loop of
+    /// its own runs in one loop.
+    #[inline(always)]
+    fn eval2<D: F64Lanes>(&self, a: [D; 2], b: [D; 2]) -> [(D, D); 2] {
+        [self.eval(a[0], b[0]), self.eval(a[1], b[1])]
+    }
 }
 
 /// Lanes of f64: `f64` (one) and `wide::f64x4` (four), with the operations the kernels
@@ -323,6 +329,22 @@ impl F64Kernel for PowInt {
             }
         }
         (acc, acc)
+    }
+
+    /// The same products as `eval`, both halves in one loop over the exponent's bits.
+    #[inline(always)]
+    fn eval2<D: F64Lanes>(&self, x: [D; 2], _: [D; 2]) -> [(D, D); 2] {
+        let (mut acc, mut p, mut n) = ([D::splat(1.0); 2], x, self.n);
+        while n != 0 {
+            if n & 1 != 0 {
+                acc = [acc[0] * p[0], acc[1] * p[1]];
+            }
+            n >>= 1;
+            if n != 0 {
+                p = [p[0] * p[0], p[1] * p[1]];
+            }
+        }
+        [(acc[0], acc[0]), (acc[1], acc[1])]
     }
 }
 

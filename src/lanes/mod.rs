@@ -483,8 +483,7 @@ impl Lane for f32x8 {
     fn map_f64<K: math::F64Kernel>(k: &K, a: Self, b: Self) -> (Self, Self) {
         let (a, b) = (a.to_array(), b.to_array());
         let half = |v: &[f32; 8], h: usize| widen(std::array::from_fn(|i| v[4 * h + i]));
-        let (x0, y0) = k.eval(half(&a, 0), half(&b, 0));
-        let (x1, y1) = k.eval(half(&a, 1), half(&b, 1));
+        let [(x0, y0), (x1, y1)] = k.eval2([half(&a, 0), half(&a, 1)], [half(&b, 0), half(&b, 1)]);
         let join = |lo: wide::f64x4, hi: wide::f64x4| {
             let (lo, hi) = (narrow(lo), narrow(hi));
             f32x8::new(std::array::from_fn(
