@@ -22,15 +22,11 @@ impl Film {
     /// A black film, or [`Error::ImageTooLarge`] if the memory cannot be had.
     pub fn new(width: u32, height: u32) -> Result<Self> {
         let n = width as usize * height as usize;
-        let mut pixels = Vec::new();
-        pixels
-            .try_reserve_exact(n)
-            .map_err(|_| Error::ImageTooLarge {
-                width,
-                height,
-                bytes: n as u128 * std::mem::size_of::<Vec3>() as u128,
-            })?;
-        pixels.resize(n, Vec3::ZERO);
+        let pixels = zeroed_pixels(n).map_err(|_| Error::ImageTooLarge {
+            width,
+            height,
+            bytes: n as u128 * std::mem::size_of::<Vec3>() as u128,
+        })?;
         Ok(Self {
             width,
             height,
@@ -65,5 +61,36 @@ impl Film {
     /// partial file or clobbers an existing one.
     pub fn write(&self, path: impl AsRef<Path>) -> Result<()> {
         crate::output::write_image(self, path.as_ref())
+    }
+}
+
+/// `n` black pixels, allocated zeroed: the pages are mapped zero by the system where they
+/// are first written, by the tiles that render them in parallel. Zeroed by `resize`, the
+/// whole image was written on one thread before the render began (a 7.7 MB memset and
+/// its page faults, 4–5 ms of `cornell-point-light`'s two-thread render).
+pub(crate) fn zeroed_pixels(n: usize) -> std::result::Result<Vec<Vec3>, ()> {
+    bytemuck::allocation::try_zeroed_vec(n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A new film is black to the bit (+0 in every channel), at any size, and a size
+    /// past what memory can hold is an error, not an abort.
+    #[test]
+    fn a_new_film_is_black() {
+        for (w, h) in [(1, 1), (3, 2), (1024, 768)] {
+            let film = Film::new(w, h).unwrap();
+            assert_eq!(film.pixels.len(), (w * h) as usize);
+            assert!(film
+                .pixels
+                .iter()
+                .all(|p| p.to_array().map(f32::to_bits) == [0; 3]));
+        }
+        assert!(matches!(
+            Film::new(u32::MAX, u32::MAX),
+            Err(Error::ImageTooLarge { .. })
+        ));
     }
 }

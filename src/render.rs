@@ -70,15 +70,11 @@ pub fn render_region(
     let (width, height) = (scene.camera.width, scene.camera.height);
     let rects = region.rects(width, height)?;
     let n: u64 = rects.iter().map(Rect::pixel_count).sum();
-    let mut pixels = Vec::new();
-    pixels
-        .try_reserve_exact(n as usize)
-        .map_err(|_| Error::ImageTooLarge {
-            width,
-            height,
-            bytes: n as u128 * std::mem::size_of::<Vec3>() as u128,
-        })?;
-    pixels.resize(n as usize, Vec3::ZERO);
+    let mut pixels = crate::film::zeroed_pixels(n as usize).map_err(|_| Error::ImageTooLarge {
+        width,
+        height,
+        bytes: n as u128 * std::mem::size_of::<Vec3>() as u128,
+    })?;
     let counts = render_rects(scene, accel, settings, &rects, &mut pixels, on_tile);
     Ok(RenderedRegion {
         region,
