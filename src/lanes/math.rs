@@ -49,6 +49,8 @@ fn pow_mixed<L: Lane>(x: L, n: L) -> L {
 
 /// The largest exponent `pow` raises to by repeated squaring.
 pub const SQUARING_MAX: u32 = 65_535;
+/// The bits of an exponent up to `SQUARING_MAX` (`PowIntLanes` reads each).
+const SQUARING_BITS: u32 = u32::BITS - SQUARING_MAX.leading_zeros();
 
 /// Whether `pow` raises to `n` by repeated squaring: an integer in [0, SQUARING_MAX].
 #[inline(always)]
@@ -360,7 +362,7 @@ impl F64Kernel for PowIntLanes {
         let one = D::splat_bits(1);
         let half = D::splat(0.5);
         let (mut acc, mut p) = (D::splat(1.0), x);
-        for j in 0..16 {
+        for j in 0..SQUARING_BITS {
             let bit: D = int_to_f64((bits >> j) & one);
             acc = bit.gt_select(half, acc * p, acc);
             p = p * p;
