@@ -21,8 +21,8 @@
 
 use super::scatter::{scatter_lanes, ScatterLanes};
 use super::{
-    direction_to, mirror_direction, mirror_fresnel, normalize_or_zero, pow_is_zero, PhongLanes,
-    RayCounts, SurfaceLanes, Tracer, T_MIN,
+    direction_to, mirror_direction, mirror_fresnel, pow_is_zero, PhongLanes, RayCounts,
+    SurfaceLanes, Tracer, T_MIN,
 };
 use crate::accel::cull::Cull;
 use crate::accel::packet::{PacketHits, RayPacket, MAX_WIDTH};
@@ -551,6 +551,7 @@ impl Tracer<'_> {
         // nothing: the tests it saves cost as much as the boxes).
         let boxes = (self.shadow_boxes.as_ref()).filter(|_| self.specialize && L::WIDTH > 1);
         let origins = boxes.map(|_| origins_box(s.point, s.error, lanes));
+        let n_dot_v = s.normal.dot(view);
         for (li, light) in scene.lights.iter().enumerate() {
             let n = light.samples();
             let radiance = V3::<L>::splat(light.radiance);
@@ -567,8 +568,9 @@ impl Tracer<'_> {
                     continue;
                 }
                 let n_dot_l = s.normal.dot(l);
-                let r = normalize_or_zero(s.normal.scale(L::splat(2.0) * n_dot_l) - l);
-                let r_dot_v = r.dot(view);
+                // R·V with R = 2 (N·L) N − L, a unit vector already (N, L unit): no
+                // reflection vector is made or normalised.
+                let r_dot_v = L::splat(2.0) * n_dot_l * n_dot_v - l.dot(view);
                 // The specular term, made once and only where it can be other than +0
                 // (`pow_is_zero`): zero lanes need no pow.
                 let base = r_dot_v.max(L::splat(0.0));
