@@ -19,15 +19,6 @@ pub struct SpherePool {
     pub object: Vec<u32>,
 }
 
-/// `SpherePool::normal` over lanes (the scalar one is this kernel at `f32`): (P − C) / r
-/// as (P − C) · (1 / r), one division rather than three; +y where r is not positive.
-#[inline(always)]
-pub fn sphere_normal<L: Lane>(center: V3<L>, radius: L, p: V3<L>) -> V3<L> {
-    let d = p - center;
-    let n = d.scale(L::splat(1.0) / radius);
-    V3::select(radius.gt(L::splat(0.0)), n, V3::splat(Vec3::Y))
-}
-
 impl SpherePool {
     pub fn len(&self) -> usize {
         self.radius.len()
@@ -63,13 +54,6 @@ impl SpherePool {
     pub fn bounds(&self, i: usize) -> Aabb {
         let r = Vec3::splat(self.radius[i]);
         Aabb::new(self.center(i) - r, self.center(i) + r)
-    }
-
-    /// Outward unit normal at a point on sphere `i`: (P − C) / r, as in the original
-    /// program. A zero-radius sphere has no normal; it returns +y rather than NaN.
-    #[inline]
-    pub fn normal(&self, i: usize, p: Vec3) -> Vec3 {
-        sphere_normal::<f32>(V3::splat(self.center(i)), self.radius[i], V3::splat(p)).lane(0)
     }
 
     /// Distance to sphere `i` in `[t_min, t_max]`: the near root if it is in range, else the

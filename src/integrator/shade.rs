@@ -21,8 +21,8 @@
 
 use super::scatter::{scatter_lanes, ScatterLanes};
 use super::{
-    direction_to, mirror_direction, mirror_fresnel, pow_is_zero, PhongLanes, RayCounts,
-    SurfaceLanes, Tracer, T_MIN,
+    direction_to, mirror_direction, mirror_fresnel, pow_is_zero, specular_cosine, PhongLanes,
+    RayCounts, SurfaceLanes, Tracer, T_MIN,
 };
 use crate::accel::cull::Cull;
 use crate::accel::packet::{PacketHits, RayPacket, MAX_WIDTH};
@@ -568,9 +568,7 @@ impl Tracer<'_> {
                     continue;
                 }
                 let n_dot_l = s.normal.dot(l);
-                // R·V with R = 2 (N·L) N − L, a unit vector already (N, L unit): no
-                // reflection vector is made or normalised.
-                let r_dot_v = L::splat(2.0) * n_dot_l * n_dot_v - l.dot(view);
+                let r_dot_v = specular_cosine(n_dot_l, n_dot_v, l.dot(view));
                 // The specular term, made once and only where it can be other than +0
                 // (`pow_is_zero`): zero lanes need no pow.
                 let base = r_dot_v.max(L::splat(0.0));
