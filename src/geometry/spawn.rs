@@ -161,12 +161,11 @@ mod tests {
                     let hit = (c.as_dvec3() + d * radius as f64).as_vec3();
                     let v = V3::<f32>::splat;
                     let (p, _, n) = sphere_point_lanes(v(c), radius, v(hit));
-                    let n = glam::DVec3::new(n.x as f64, n.y as f64, n.z as f64);
+                    let n = n.lane(0).as_dvec3();
                     assert!((n.length() - 1.0).abs() <= 5.0 * u, "|n| = {}", n.length());
                     let want = (hit.as_dvec3() - c.as_dvec3()).normalize();
                     assert!((n - want).length() <= 8.0 * u, "{n} against {want}");
-                    let old = (p.x - c.x, p.y - c.y, p.z - c.z);
-                    let old = glam::DVec3::new(old.0 as f64, old.1 as f64, old.2 as f64);
+                    let old = (p.lane(0) - c).as_dvec3();
                     worst_old = worst_old.max((old.length() / radius as f64 - 1.0).abs());
                 }
             }

@@ -645,7 +645,7 @@ mod tests {
             x as f32 / u32::MAX as f32 * 2.0 - 1.0
         };
         let mut unit = || normalize(V3::<f32>::splat(Vec3::new(next(), next(), next())));
-        let d = |a: V3<f32>| glam::DVec3::new(a.x as f64, a.y as f64, a.z as f64);
+        let d = |a: V3<f32>| a.lane(0).as_dvec3();
         let mut unclamped_past_one = 0;
         for i in 0..1_000_000 {
             let stray = if i % 4 == 0 {
