@@ -106,10 +106,29 @@ pub fn spawn_ray(p: &ErrorPoint, n: Vec3, dir: Vec3) -> Ray {
 /// with error bound `error`, unit normal `n`, direction `dir`.
 #[inline(always)]
 pub fn spawn_origin<L: Lane>(point: V3<L>, error: V3<L>, n: V3<L>, dir: V3<L>) -> V3<L> {
-    let zero = L::splat(0.0);
-    let d = n.abs().dot(error);
-    let offset = n.scale(d);
-    let offset = V3::select(dir.dot(n).lt(zero), -offset, offset);
+    let offset = spawn_offset(error, n);
+    let offset = V3::select(dir.dot(n).lt(L::splat(0.0)), -offset, offset);
+    step_out(point, offset)
+}
+
+/// `spawn_origin`'s two answers, for directions on the side `n` points to and on the
+/// other (a direction d takes the second where d · n < 0): the same operations, so the
+/// same bits, for the many shadow rays an area light sends from one point.
+#[inline(always)]
+pub fn spawn_origins<L: Lane>(point: V3<L>, error: V3<L>, n: V3<L>) -> [V3<L>; 2] {
+    let offset = spawn_offset(error, n);
+    [step_out(point, offset), step_out(point, -offset)]
+}
+
+/// The normal scaled by the error bound's extent along it.
+#[inline(always)]
+fn spawn_offset<L: Lane>(error: V3<L>, n: V3<L>) -> V3<L> {
+    n.scale(n.abs().dot(error))
+}
+
+/// `point` moved by `offset`, then a further ulp the same way on each axis.
+#[inline(always)]
+fn step_out<L: Lane>(point: V3<L>, offset: V3<L>) -> V3<L> {
     let o = point + offset;
     V3::new(
         o.x.step_towards(offset.x),
@@ -139,6 +158,59 @@ mod tests {
         assert!(up.origin.x > 1000.001);
         let down = spawn_ray(&p, Vec3::X, Vec3::new(-1.0, 1.0, 0.0).normalize());
         assert!(down.origin.x < 999.999);
+    }
+
+    /// `spawn_origins` gives `spawn_origin`'s bits for every direction, the first
+    /// where d · n ≥ 0 (d · n = −0 included), the second where d · n < 0; over 8-wide
+    /// lanes, with points near and far from the origin, zero error bounds and normals
+    /// along an axis.
+    #[test]
+    fn both_sides_are_the_origins_of_each_direction() {
+        use wide::f32x8;
+        let mut x = 0x2f6b_9a31u32;
+        let mut next = || {
+            x = crate::sampling::hash_u32(x);
+            x as f32 / u32::MAX as f32 * 2.0 - 1.0
+        };
+        let (mut front, mut back) = (0, 0);
+        for round in 0..4000 {
+            let scale = [1e-3f32, 1.0, 1e3, 1e5][round % 4];
+            let mut v = |s: f32| V3::<f32x8>::from_fn(|_| Vec3::new(next(), next(), next()) * s);
+            let point = v(scale);
+            let error = if round % 5 == 0 {
+                v(0.0)
+            } else {
+                v(scale * 1e-6).abs()
+            };
+            let n: V3<f32x8> = match round % 7 {
+                0 => V3::splat(Vec3::Y),
+                1 => V3::splat(Vec3::NEG_Z),
+                _ => V3::from_fn(|k| v(1.0).lane(k).normalize_or(Vec3::X)),
+            };
+            let dir = v(1.0);
+            let dir = if round % 11 == 0 {
+                // Directions in the surface: d · n = ±0.
+                V3::new(-n.y, n.x, f32x8::ZERO)
+            } else {
+                dir
+            };
+            let [f, b] = spawn_origins(point, error, n);
+            let want = spawn_origin(point, error, n, dir);
+            let d_dot_n = dir.dot(n);
+            for k in 0..8 {
+                let side = if d_dot_n.lane(k) < 0.0 { &b } else { &f };
+                assert_eq!(
+                    side.lane(k).to_array().map(f32::to_bits),
+                    want.lane(k).to_array().map(f32::to_bits)
+                );
+                if d_dot_n.lane(k) < 0.0 {
+                    back += 1
+                } else {
+                    front += 1
+                }
+            }
+        }
+        assert!(front > 10_000 && back > 10_000, "{front} {back}");
     }
 
     /// The normal is a unit vector within 5u (u = 2⁻²⁴) and points from the centre to

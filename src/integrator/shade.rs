@@ -27,7 +27,7 @@ use super::{
 use crate::accel::cull::Cull;
 use crate::accel::packet::{PacketHits, RayPacket, MAX_WIDTH};
 use crate::accel::shadow::{origins_box, Candidates};
-use crate::geometry::spawn::spawn_origin;
+use crate::geometry::spawn::{spawn_origin, spawn_origins};
 use crate::geometry::Ray;
 use crate::lanes::math::pow;
 use crate::lanes::{all_equal, Lane, Mask, V3};
@@ -87,6 +87,8 @@ pub(crate) struct ShadeTables {
     phong_of: Vec<u32>,
     /// At most `FEW_OBJECTS` objects (`bunny`: four).
     few: bool,
+    /// Some light is sampled more than once.
+    area_lights: bool,
 }
 
 impl ShadeTables {
@@ -99,6 +101,7 @@ impl ShadeTables {
             phong: vec![Phong::default(); scene.materials.len().max(1)],
             phong_of: vec![0; objects + 1],
             few: objects <= FEW_OBJECTS,
+            area_lights: scene.lights.iter().any(|l| l.samples() > 1),
         };
         for (i, m) in scene.materials.iter().enumerate() {
             if let Material::Phong(p) | Material::PhongMirror { phong: p, .. } = *m {
@@ -552,6 +555,11 @@ impl Tracer<'_> {
         let boxes = (self.shadow_boxes.as_ref()).filter(|_| self.specialize && L::WIDTH > 1);
         let origins = boxes.map(|_| origins_box(s.point, s.error, lanes));
         let n_dot_v = s.normal.dot(view);
+        // The shadow rays' origins on either side of the surfaces, when a light is
+        // sampled more than once (`spawn_origins`): then a select per sample, not a
+        // spawn. (One lane gains nothing: its spawn is a branch.)
+        let sides = (L::WIDTH > 1 && self.tables.area_lights)
+            .then(|| spawn_origins(s.point, s.error, s.normal));
         for (li, light) in scene.lights.iter().enumerate() {
             let n = light.samples();
             let radiance = V3::<L>::splat(light.radiance);
@@ -591,7 +599,12 @@ impl Tracer<'_> {
                 if traced == 0 {
                     continue;
                 }
-                let visible = self.light_visible_lanes(s, l, traced, light, among, counts);
+                let origin = match sides {
+                    // `spawn_origin`'s side test: l · n is n · l, bit for bit.
+                    Some([front, back]) => V3::select(n_dot_l.lt(L::splat(0.0)), back, front),
+                    None => spawn_origin(s.point, s.error, s.normal, l),
+                };
+                let visible = self.light_visible_lanes(origin, l, traced, light, among, counts);
                 if visible == 0 {
                     continue;
                 }
@@ -621,13 +634,13 @@ impl Tracer<'_> {
         V3::new(m.albedo.x * sum.x, m.albedo.y * sum.y, m.albedo.z * sum.z)
     }
 
-    /// The lanes of `lanes` whose shadow ray from their surface along `l` reaches
-    /// `light`: the scalar test for one lane, a shadow packet for more. `among`: the
+    /// The lanes of `lanes` whose shadow ray from `origin` along `l` reaches `light`:
+    /// the scalar test for one lane, a shadow packet for more. `among`: the
     /// only primitives that can occlude a packet's rays, when known (`accel::shadow`).
     #[inline(always)]
     fn light_visible_lanes<L: Lane>(
         &self,
-        s: &SurfaceLanes<L>,
+        origin: V3<L>,
         l: V3<L>,
         lanes: u32,
         light: &Light,
@@ -635,7 +648,6 @@ impl Tracer<'_> {
         counts: &mut RayCounts,
     ) -> u32 {
         counts.shadow += lanes.count_ones() as u64;
-        let origin = spawn_origin(s.point, s.error, s.normal, l);
         let (scene, stats) = (self.scene, &mut counts.traversal);
         if L::WIDTH == 1 {
             let ray = Ray::new(origin.lane(0), l.lane(0));
