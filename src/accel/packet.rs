@@ -8,6 +8,11 @@
 //! lane (the same margins as the scalar test), and the closest hit is the smallest
 //! `(t, id)` whatever the visiting order. A subtree entered by few lanes
 //! (`RayPacket::fallback`) is finished one ray at a time by the scalar traversal.
+//!
+//! One file of about 750 lines, all code (its tests are `tests/packets.rs`): the packet
+//! and every lane-wise test the traversals run on it, with the watertight lanes that
+//! the quad and triangle tests share (`LazyTriangles`) and the traversal context
+//! (`PacketQuery`), which only exist for those tests.
 
 use super::bvh::{plane_rows, slab, Node4, FAR_SCALE, NEAR_SCALE};
 pub use super::bvh::{PacketHits, ShadowLanes};

@@ -1,6 +1,11 @@
 //! One ray through the BVH: the closest hit and the shadow rays' any-hit query
 //! (`ShadowQuery`) over the 8-wide nodes, the primitives beside the tree, and the lanes a
 //! packet finishes alone over the 4-wide nodes (`closest_hit_from`, `occluded_from`).
+//!
+//! One file of about 710 lines, all code (its tests are in `tests/bvh.rs` and
+//! `tests/stress.rs`): the one-ray query context (`RayQuery`, `Closest`) and the
+//! two traversals that use it, whose leaf loops and primitives beside the tree are
+//! shared between the 8-wide and the 4-wide nodes.
 
 use super::node::{decode_leaf, BoxRay, Wide, LEAF};
 use super::node8::BoxRay8;
