@@ -303,6 +303,29 @@ impl KeyLanes {
         L::from_fn(|i| u[i])
     }
 
+    /// `(uniform(vertex, slot), uniform(vertex, slot + 1))`, bit for bit, for the first
+    /// slot of a pair: the Sobol sampler makes the pair's shuffled index and the pixel's
+    /// scramble once for both. An area light's sample points take it (their slots are
+    /// known only at run time; `cornell` with Sobol renders 7% fewer instructions). At
+    /// the fixed slots (jitter, lens, bounce) two `uniform` calls already compile to the
+    /// shared work: the pair measured 0.3–0.6% more instructions there (callgrind).
+    #[inline(always)]
+    pub fn uniform_pair<L: Lane>(&self, vertex: u32, slot: u32) -> (L, L) {
+        if self.kind != SamplerKind::Sobol {
+            return (self.uniform(vertex, slot), self.uniform(vertex, slot + 1));
+        }
+        let d = Dimension::of(slot);
+        debug_assert!(d.component == 0 && Dimension::of(slot + 1).pair == d.pair);
+        let pair = dimension_hash(vertex, d.pair);
+        let index = self.sample.wrapping_mul(d.draws).wrapping_add(d.draw);
+        let (mut u, mut v) = ([0.0f32; MAX_LANES], [0.0f32; MAX_LANES]);
+        for k in 0..L::WIDTH {
+            let [a, b] = sobol_owen_pair(index, hash_u32(self.pixel[k] ^ pair));
+            (u[k], v[k]) = (to_unit(a), to_unit(b));
+        }
+        (L::from_fn(|i| u[i]), L::from_fn(|i| v[i]))
+    }
+
     /// The stratified sampler's numbers, lane by lane (out of line: its permutations
     /// loop).
     #[inline(never)]
@@ -413,7 +436,25 @@ fn dim1_reversed(r: u32) -> u32 {
 /// against the construction written out.
 #[inline(always)]
 pub fn sobol_owen(index: u32, seed: u32, component: u32) -> u32 {
-    let r = lk_permutation(index.reverse_bits(), seed);
+    sobol_owen_of(shuffled(index, seed), seed, component)
+}
+
+/// Both components of `sobol_owen`'s point `index`, which share the shuffled index.
+#[inline(always)]
+pub fn sobol_owen_pair(index: u32, seed: u32) -> [u32; 2] {
+    let r = shuffled(index, seed);
+    [sobol_owen_of(r, seed, 0), sobol_owen_of(r, seed, 1)]
+}
+
+/// `sobol_owen`'s shuffled index, bit-reversed: r = lk(reverse(index)).
+#[inline(always)]
+fn shuffled(index: u32, seed: u32) -> u32 {
+    lk_permutation(index.reverse_bits(), seed)
+}
+
+/// Component `component` of the point whose shuffled index is `r` (`shuffled`).
+#[inline(always)]
+fn sobol_owen_of(r: u32, seed: u32, component: u32) -> u32 {
     let (bits_reversed, salt) = if component == 0 {
         (r.reverse_bits(), 0x9e37_79b9)
     } else {
@@ -560,6 +601,32 @@ mod tests {
                     for i in 0..L::WIDTH {
                         let want = sampler.key(xs[i], ys[i], sample).uniform(vertex, sl);
                         assert_eq!(us.lane(i).to_bits(), want.to_bits(), "{:?}", sampler.kind);
+                    }
+                }
+                // A pair's two numbers at once are the two made apart.
+                for (vertex, sl) in [
+                    (0, slot::JITTER_X),
+                    (0, slot::LENS_X),
+                    (2, slot::SCATTER_A),
+                    (1, slot::light(1, 7, 1)),
+                    (3, slot::light(0, 0, 1)),
+                ] {
+                    let (a, b): (L, L) = lanes.uniform_pair(vertex, sl);
+                    let (ua, ub): (L, L) =
+                        (lanes.uniform(vertex, sl), lanes.uniform(vertex, sl + 1));
+                    for i in 0..L::WIDTH {
+                        assert_eq!(
+                            a.lane(i).to_bits(),
+                            ua.lane(i).to_bits(),
+                            "{:?}",
+                            sampler.kind
+                        );
+                        assert_eq!(
+                            b.lane(i).to_bits(),
+                            ub.lane(i).to_bits(),
+                            "{:?}",
+                            sampler.kind
+                        );
                     }
                 }
             }

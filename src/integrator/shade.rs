@@ -687,7 +687,8 @@ pub(super) fn light_targets<L: Lane>(
     } else {
         L::splat(0.0)
     };
-    light.sample_lanes(pick, u(1), u(2))
+    let (a, b) = keys.uniform_pair::<L>(vertex, slot::light(li, k, 1));
+    light.sample_lanes(pick, a, b)
 }
 
 #[cfg(test)]
