@@ -49,11 +49,9 @@ pub struct ShadowBoxes {
     triangles: u32,
     /// Per light: its box, and its own primitives (never occluders).
     lights: Vec<(Aabb, u64)>,
-    /// Every primitive's box, in the numbering above.
+    /// Every primitive's box, in the numbering above: the shaft's tests, and a candidate
+    /// quad's box, which a packet tests before its edges (`Candidates::quad_box`).
     boxes: Vec<Aabb>,
-    /// The quads' boxes by pool index, as (min, max): a packet tests a candidate quad's
-    /// box before its edges (`Candidates::quad_box`).
-    quad_boxes: Vec<([f32; 3], [f32; 3])>,
 }
 
 /// Primitives a bundle of shadow rays may meet, as runs of one kind: (kind, first and
@@ -62,7 +60,8 @@ pub struct ShadowBoxes {
 pub struct Candidates<'a> {
     runs: [(PrimKind, u8, u8); MAX_RUNS],
     len: u8,
-    quad_boxes: &'a [([f32; 3], [f32; 3])],
+    /// The quads' boxes by pool index.
+    quad_boxes: &'a [Aabb],
 }
 
 /// Candidates in more runs than this take the tree.
@@ -130,16 +129,10 @@ impl ShadowBoxes {
                 column(&|b| b.max.y, f32::NEG_INFINITY),
                 column(&|b| b.max.z, f32::NEG_INFINITY),
             ],
-            boxes: boxes.clone(),
+            boxes,
             quads: ns as u32,
             triangles: (ns + nq) as u32,
             lights,
-            quad_boxes: (0..nq)
-                .map(|i| {
-                    let b = scene.quads.bounds(i);
-                    (b.min.to_array(), b.max.to_array())
-                })
-                .collect(),
         })
     }
 
@@ -180,7 +173,7 @@ impl ShadowBoxes {
             }
         }
         let (quads, triangles) = (self.quads as usize, self.triangles as usize);
-        Candidates::of_mask(mask, quads, triangles, &self.quad_boxes)
+        Candidates::of_mask(mask, quads, triangles, &self.boxes[quads..triangles])
     }
 }
 
@@ -292,7 +285,7 @@ impl<'a> Candidates<'a> {
         mut mask: u64,
         quads: usize,
         triangles: usize,
-        quad_boxes: &'a [([f32; 3], [f32; 3])],
+        quad_boxes: &'a [Aabb],
     ) -> Option<Self> {
         let mut c = Candidates {
             runs: [(PrimKind::Sphere, 0, 0); MAX_RUNS],
@@ -331,7 +324,8 @@ impl<'a> Candidates<'a> {
     /// Quad `i`'s box (min, max).
     #[inline(always)]
     pub fn quad_box(&self, i: usize) -> ([f32; 3], [f32; 3]) {
-        self.quad_boxes[i]
+        let b = &self.quad_boxes[i];
+        (b.min.to_array(), b.max.to_array())
     }
 
     /// How many primitives the candidates hold.
