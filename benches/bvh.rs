@@ -7,7 +7,7 @@
 mod common;
 use common::camera_rays;
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
-use raytracer::accel::{Accel, AccelKind, TraversalStats};
+use raytracer::accel::{Accel, AccelKind, Context, TraversalStats};
 use raytracer::integrator::T_MIN;
 use raytracer::scene::{Overrides, Scene, SceneSource};
 use std::borrow::Cow;
@@ -56,7 +56,7 @@ fn bench_camera_rays(c: &mut Criterion) {
                 let mut hits = 0u32;
                 for r in &rays {
                     hits += accel
-                        .closest_hit(&scene, r, T_MIN, f32::INFINITY, &mut stats)
+                        .closest_hit(Context::new(&scene, &mut stats), r, T_MIN, f32::INFINITY)
                         .is_some() as u32;
                 }
                 hits

@@ -16,7 +16,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use raytracer::accel::packet::RayPacket;
-use raytracer::accel::{Accel, AccelKind, TraversalStats};
+use raytracer::accel::{Accel, AccelKind, Context, TraversalStats};
 use raytracer::geometry::Ray;
 use raytracer::integrator::T_MIN;
 use raytracer::lanes::{set_lanes, Lane};
@@ -31,7 +31,7 @@ fn closest_packets<L: Lane>(scene: &Scene, accel: &Accel, packets: &[LanePacket<
     let mut out = Vec::new();
     for lp in packets {
         let p = RayPacket::<L>::from_lanes(lp.origin, lp.dir, lp.active);
-        let hits = accel.closest_hit_packet(scene, &p, T_MIN, &mut stats);
+        let hits = accel.closest_hit_packet(Context::new(scene, &mut stats), &p, T_MIN);
         for k in set_lanes(lp.active) {
             let h = hits.hit(k);
             out.push(h.map_or(u64::MAX, |h| (h.t.to_bits() as u64) << 32 | h.id as u64));
@@ -44,7 +44,7 @@ fn closest_scalar(scene: &Scene, accel: &Accel, rays: &[Ray]) -> Vec<u64> {
     let mut stats = TraversalStats::default();
     let mut out = Vec::with_capacity(rays.len());
     for r in rays {
-        let h = accel.closest_hit(scene, r, T_MIN, f32::INFINITY, &mut stats);
+        let h = accel.closest_hit(Context::new(scene, &mut stats), r, T_MIN, f32::INFINITY);
         out.push(h.map_or(u64::MAX, |h| (h.t.to_bits() as u64) << 32 | h.id as u64));
     }
     out
@@ -56,7 +56,14 @@ fn visible_packets<L: Lane>(scene: &Scene, accel: &Accel, packets: &[LanePacket<
     let mut out = Vec::new();
     for lp in packets {
         let p = RayPacket::<L>::from_lanes(lp.origin, lp.dir, lp.active);
-        let v = accel.light_visible_packet(scene, &p, T_MIN, light, lp.active, &mut stats);
+        let v = accel.light_visible_packet(
+            Context::new(scene, &mut stats),
+            &p,
+            T_MIN,
+            light,
+            lp.active,
+            None,
+        );
         out.extend(
             (0..L::WIDTH)
                 .filter(|k| lp.active >> k & 1 != 0)
@@ -71,7 +78,7 @@ fn visible_scalar(scene: &Scene, accel: &Accel, rays: &[Ray]) -> Vec<bool> {
     let light = &scene.lights[0];
     let mut out = Vec::with_capacity(rays.len());
     for r in rays {
-        out.push(accel.light_visible(scene, r, T_MIN, light, &mut stats));
+        out.push(accel.light_visible(Context::new(scene, &mut stats), r, T_MIN, light));
     }
     out
 }

@@ -5,7 +5,7 @@ mod support;
 
 use glam::Vec3;
 use raytracer::accel::packet::{RayPacket, ShadowLanes, MAX_WIDTH};
-use raytracer::accel::{Accel, AccelKind, ShadowQuery, TraversalStats};
+use raytracer::accel::{Accel, AccelKind, Context, ShadowQuery, TraversalStats};
 use raytracer::geometry::{Aabb, Hit, Ray};
 use raytracer::integrator::T_MIN;
 use raytracer::scene::Scene;
@@ -36,10 +36,10 @@ impl Pair {
         (
             self.linear
                 .1
-                .closest_hit(&self.linear.0, ray, T_MIN, t_max, &mut s),
+                .closest_hit(Context::new(&self.linear.0, &mut s), ray, T_MIN, t_max),
             self.bvh
                 .1
-                .closest_hit(&self.bvh.0, ray, T_MIN, t_max, &mut s),
+                .closest_hit(Context::new(&self.bvh.0, &mut s), ray, T_MIN, t_max),
         )
     }
 }
@@ -323,14 +323,14 @@ fn assert_shadows_agree(scene: &Scene, n: usize) {
         );
         let target = light.sample(rng.f32(), rng.f32(), rng.f32());
         let ray = Ray::new(o, (target - o).normalize_or(Vec3::Y));
-        let l = pair
-            .linear
-            .1
-            .light_visible(&pair.linear.0, &ray, T_MIN, light, &mut s);
+        let l =
+            pair.linear
+                .1
+                .light_visible(Context::new(&pair.linear.0, &mut s), &ray, T_MIN, light);
         let b = pair
             .bvh
             .1
-            .light_visible(&pair.bvh.0, &ray, T_MIN, light, &mut s);
+            .light_visible(Context::new(&pair.bvh.0, &mut s), &ray, T_MIN, light);
         assert_eq!(l, b, "ray {i} to light {}", light.object);
         if l {
             visible += 1
@@ -348,7 +348,7 @@ fn assert_shadows_agree(scene: &Scene, n: usize) {
             id_light: u32::MAX,
             object: u32::MAX,
         };
-        let any = bvh.occluded(&pair.bvh.0, &ray, query, &mut s);
+        let any = bvh.occluded(Context::new(&pair.bvh.0, &mut s), &ray, query);
         let closest = pair.closest(&ray, t_max).0.is_some();
         assert_eq!(any, closest, "any-hit ray {i}, t_max {t_max}");
     }
@@ -578,18 +578,23 @@ fn a_deep_tree_stays_within_the_traversal_stacks() {
             id_light: u32::MAX,
             object,
         };
-        assert!(bvh.occluded(scene, ray, query(u32::MAX), &mut s));
-        assert!(!bvh.occluded(scene, ray, query(object), &mut s));
+        assert!(bvh.occluded(Context::new(scene, &mut s), ray, query(u32::MAX)));
+        assert!(!bvh.occluded(Context::new(scene, &mut s), ray, query(object)));
     }
     for group in rays.chunks_exact(MAX_WIDTH) {
         let rays: [Ray; MAX_WIDTH] = group.try_into().unwrap();
         let p = RayPacket::<f32x8>::new(&rays, 0xff);
-        let hits = bvh.closest_hit_packet(scene, &p, T_MIN, &mut s).to_array();
+        let hits = bvh
+            .closest_hit_packet(Context::new(scene, &mut s), &p, T_MIN)
+            .to_array();
         for (k, ray) in rays.iter().enumerate() {
             assert_eq!(key(hits[k]), key(pair.closest(ray, f32::INFINITY).1));
         }
         let shadow = ShadowLanes::<f32x8>::from_fn(T_MIN, object, |_| (f32::MAX, u32::MAX));
-        assert_eq!(bvh.occluded_packet(scene, &p, shadow, 0xff, &mut s), 0);
+        assert_eq!(
+            bvh.occluded_packet(Context::new(scene, &mut s), &p, shadow, 0xff),
+            0
+        );
     }
     // Every node of the 4-wide tree was visited by the packets' shadow queries.
     assert!(s.packet_nodes >= bvh.nodes.len() as u64);

@@ -7,7 +7,7 @@ mod support;
 use glam::{Vec3, Vec4};
 use proptest::prelude::*;
 use raytracer::accel::packet::{RayPacket, ShadowLanes, MAX_WIDTH};
-use raytracer::accel::{Accel, AccelKind, TraversalStats};
+use raytracer::accel::{Accel, AccelKind, Context, TraversalStats};
 use raytracer::geometry::{Hit, Ray};
 use raytracer::integrator::T_MIN;
 use raytracer::integrator::{RayCounts, Tracer};
@@ -317,7 +317,7 @@ fn packet_rays(scene: &Scene, accel: &Accel, kind: u8, seed: u64) -> [Ray; MAX_W
             let o = point(&mut rng, 1.0);
             let r = Ray::new(o, (centre - o).normalize_or(Vec3::X));
             let mut s = TraversalStats::default();
-            match accel.closest_hit(scene, &r, T_MIN, f32::INFINITY, &mut s) {
+            match accel.closest_hit(Context::new(scene, &mut s), &r, T_MIN, f32::INFINITY) {
                 Some(h) => Ray::new(r.at(h.t), rng.unit_vector()),
                 None => r,
             }
@@ -350,13 +350,14 @@ fn check_packet<L: Lane>(rays: &[Ray; MAX_WIDTH], active: u32) -> Result<(), Tes
     let mut s = TraversalStats::default();
     let p = RayPacket::<L>::new(rays, active);
     let hits = accel
-        .closest_hit_packet(scene, &p, T_MIN, &mut s)
+        .closest_hit_packet(Context::new(scene, &mut s), &p, T_MIN)
         .to_array();
     for (light_index, light) in scene.lights.iter().enumerate() {
-        let visible = accel.light_visible_packet(scene, &p, T_MIN, light, active, &mut s);
+        let visible =
+            accel.light_visible_packet(Context::new(scene, &mut s), &p, T_MIN, light, active, None);
         for k in 0..L::WIDTH {
-            let want =
-                active >> k & 1 != 0 && accel.light_visible(scene, &rays[k], T_MIN, light, &mut s);
+            let want = active >> k & 1 != 0
+                && accel.light_visible(Context::new(scene, &mut s), &rays[k], T_MIN, light);
             prop_assert_eq!(
                 visible >> k & 1 != 0,
                 want,
@@ -368,7 +369,7 @@ fn check_packet<L: Lane>(rays: &[Ray; MAX_WIDTH], active: u32) -> Result<(), Tes
     }
     for k in 0..L::WIDTH {
         let want = if active >> k & 1 != 0 {
-            accel.closest_hit(scene, &rays[k], T_MIN, f32::INFINITY, &mut s)
+            accel.closest_hit(Context::new(scene, &mut s), &rays[k], T_MIN, f32::INFINITY)
         } else {
             None
         };
@@ -391,9 +392,10 @@ fn check_packet<L: Lane>(rays: &[Ray; MAX_WIDTH], active: u32) -> Result<(), Tes
     });
     let object = scene.lights[0].object;
     let query = ShadowLanes::<L>::from_fn(T_MIN, object, |k| (t_light[k], id_light[k]));
-    let occluded = bvh.occluded_packet(scene, &p, query, active, &mut s);
+    let occluded = bvh.occluded_packet(Context::new(scene, &mut s), &p, query, active);
     for k in 0..L::WIDTH {
-        let want = active >> k & 1 != 0 && bvh.occluded(scene, &rays[k], query.lane(k), &mut s);
+        let want = active >> k & 1 != 0
+            && bvh.occluded(Context::new(scene, &mut s), &rays[k], query.lane(k));
         prop_assert_eq!(occluded >> k & 1 != 0, want, "occluded lane {}", k);
     }
     Ok(())
@@ -423,7 +425,7 @@ fn packet_rays_cover_hits_of_every_kind() {
     for kind in 0..7 {
         for seed in 0..50 {
             for r in packet_rays(scene, accel, kind, seed) {
-                match accel.closest_hit(scene, &r, T_MIN, f32::INFINITY, &mut s) {
+                match accel.closest_hit(Context::new(scene, &mut s), &r, T_MIN, f32::INFINITY) {
                     Some(h) => {
                         hits += 1;
                         kinds.insert(format!("{:?}", h.kind));
@@ -499,9 +501,12 @@ fn a_tiles_cone_keeps_every_primitive_its_camera_rays_hit() {
                     for [jx, jy, lx, ly] in samples {
                         let ray = scene.camera.ray(x, y, jx, jy, lx, ly);
                         let mut s = TraversalStats::default();
-                        let Some(hit) =
-                            accel.closest_hit(&scene, &ray, T_MIN, f32::INFINITY, &mut s)
-                        else {
+                        let Some(hit) = accel.closest_hit(
+                            Context::new(&scene, &mut s),
+                            &ray,
+                            T_MIN,
+                            f32::INFINITY,
+                        ) else {
                             continue;
                         };
                         let k = hit.kind as usize;
@@ -656,7 +661,7 @@ fn shadow_candidates_keep_every_occluder() {
             let origins: [Vec3; MAX_WIDTH] = std::array::from_fn(|_| {
                 let d = (aim + rng.unit_vector() * 0.05).normalize();
                 let r = Ray::new(base, d);
-                match accel.closest_hit(&scene, &r, T_MIN, f32::INFINITY, &mut s) {
+                match accel.closest_hit(Context::new(&scene, &mut s), &r, T_MIN, f32::INFINITY) {
                     Some(h) if round % 4 != 0 => r.at(h.t),
                     _ => base + d * rng.range(0.0, 0.2),
                 }
@@ -680,9 +685,22 @@ fn shadow_candidates_keep_every_occluder() {
                 let dir =
                     V3::<f32x8>::from_fn(|k| (targets.lane(k) - origins[k]).normalize_or(Vec3::Y));
                 let p = RayPacket::<f32x8>::from_active_lanes(o, dir, active);
-                let want = accel.light_visible_packet(&scene, &p, T_MIN, light, active, &mut s);
-                let got = accel
-                    .light_visible_packet_among(&scene, &p, T_MIN, light, active, among, &mut s);
+                let want = accel.light_visible_packet(
+                    Context::new(&scene, &mut s),
+                    &p,
+                    T_MIN,
+                    light,
+                    active,
+                    None,
+                );
+                let got = accel.light_visible_packet(
+                    Context::new(&scene, &mut s),
+                    &p,
+                    T_MIN,
+                    light,
+                    active,
+                    Some(among),
+                );
                 assert_eq!(got, want, "{name}, round {round}, light {li}");
                 lanes_tested += active.count_ones();
                 visible += want.count_ones();

@@ -11,7 +11,7 @@
 mod support;
 
 use glam::Vec3;
-use raytracer::accel::{Accel, AccelKind, TraversalStats};
+use raytracer::accel::{Accel, AccelKind, Context, TraversalStats};
 use raytracer::generate::{icosphere, subdivide_times};
 use raytracer::geometry::quad::Quad;
 use raytracer::geometry::spawn::{planar_point, spawn_ray};
@@ -69,11 +69,10 @@ fn all_triangles(scene: &Scene) -> Vec<[Vec3; 3]> {
 
 fn closest(accel: &Accel, scene: &Scene, ray: &Ray) -> Option<Hit> {
     accel.closest_hit(
-        scene,
+        Context::new(scene, &mut TraversalStats::default()),
         ray,
         T_MIN,
         f32::INFINITY,
-        &mut TraversalStats::default(),
     )
 }
 
@@ -324,7 +323,7 @@ fn quad_rays(scene: &Scene, groups: &[Vec<(Vec3, Vec3)>], objects: &[u32], leaks
         };
         let p8 = RayPacket::<f32x8>::new(&rays, active);
         let hits8 = bvh
-            .closest_hit_packet(&bvh_scene, &p8, T_MIN, &mut s)
+            .closest_hit_packet(Context::new(&bvh_scene, &mut s), &p8, T_MIN)
             .to_array();
         let mut hits4 = [None; MAX_WIDTH];
         for half in 0..2 {
@@ -336,23 +335,23 @@ fn quad_rays(scene: &Scene, groups: &[Vec<(Vec3, Vec3)>], objects: &[u32], leaks
             r.copy_within(4 * half..4 * half + 4, 0);
             let p4 = RayPacket::<glam::Vec4>::new(&r, lanes);
             let h = bvh
-                .closest_hit_packet(&bvh_scene, &p4, T_MIN, &mut s)
+                .closest_hit_packet(Context::new(&bvh_scene, &mut s), &p4, T_MIN)
                 .to_array();
             hits4[4 * half..4 * half + 4].copy_from_slice(&h[..4]);
         }
         // Shadow rays towards a light far beyond the target, of no object in the scene.
         let id_light = [u32::MAX; MAX_WIDTH];
         let query = ShadowLanes::<f32x8>::from_fn(T_MIN, u32::MAX, |k| (f32::MAX, id_light[k]));
-        let occluded = tree.occluded_packet(&bvh_scene, &p8, query, active, &mut s);
+        let occluded = tree.occluded_packet(Context::new(&bvh_scene, &mut s), &p8, query, active);
         for (k, ray) in rays.iter().enumerate().take(group.len()) {
             leaks.rays += 1;
-            let b = bvh.closest_hit(&bvh_scene, ray, T_MIN, f32::INFINITY, &mut s);
+            let b = bvh.closest_hit(Context::new(&bvh_scene, &mut s), ray, T_MIN, f32::INFINITY);
             leaks.bvh += !good(&b, k) as u64;
-            let l = lin.closest_hit(&lin_scene, ray, T_MIN, f32::INFINITY, &mut s);
+            let l = lin.closest_hit(Context::new(&lin_scene, &mut s), ray, T_MIN, f32::INFINITY);
             leaks.linear += !good(&l, k) as u64;
             leaks.packet8 += !good(&hits8[k], k) as u64;
             leaks.packet4 += !good(&hits4[k], k) as u64;
-            let occ = tree.occluded(&bvh_scene, ray, query.lane(k), &mut s);
+            let occ = tree.occluded(Context::new(&bvh_scene, &mut s), ray, query.lane(k));
             leaks.occluded += !occ as u64;
             leaks.occluded_packet += (occluded >> k & 1 == 0) as u64;
             let key = |h: &Option<Hit>| h.map(|h| (h.t.to_bits(), h.id));

@@ -15,7 +15,7 @@ mod common;
 
 use common::{camera_packets, flatten, in_lanes, shadow_packets, small_scene, LanePacket, Packet};
 use raytracer::accel::packet::RayPacket;
-use raytracer::accel::{Accel, TraversalStats};
+use raytracer::accel::{Accel, Context, TraversalStats};
 use raytracer::integrator::T_MIN;
 use raytracer::lanes::Lane;
 use raytracer::scene::Scene;
@@ -36,10 +36,10 @@ fn trace_all<L: Lane>(
     if L::WIDTH == 1 {
         for ray in &flatten(packets) {
             hits += if shadow {
-                accel.light_visible(scene, ray, T_MIN, &scene.lights[0], stats)
+                accel.light_visible(Context::new(scene, stats), ray, T_MIN, &scene.lights[0])
             } else {
                 accel
-                    .closest_hit(scene, ray, T_MIN, f32::INFINITY, stats)
+                    .closest_hit(Context::new(scene, stats), ray, T_MIN, f32::INFINITY)
                     .is_some()
             } as u64;
         }
@@ -48,11 +48,17 @@ fn trace_all<L: Lane>(
     for lp in lanes {
         let p = RayPacket::<L>::from_lanes(lp.origin, lp.dir, lp.active);
         hits += if shadow {
-            let v =
-                accel.light_visible_packet(scene, &p, T_MIN, &scene.lights[0], lp.active, stats);
+            let v = accel.light_visible_packet(
+                Context::new(scene, stats),
+                &p,
+                T_MIN,
+                &scene.lights[0],
+                lp.active,
+                None,
+            );
             v.count_ones() as u64
         } else {
-            let h = accel.closest_hit_packet(scene, &p, T_MIN, stats);
+            let h = accel.closest_hit_packet(Context::new(scene, stats), &p, T_MIN);
             (h.found & lp.active).count_ones() as u64
         };
     }

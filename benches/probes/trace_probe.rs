@@ -14,7 +14,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 use common::camera_rays;
-use raytracer::accel::{Accel, AccelKind, TraversalStats};
+use raytracer::accel::{Accel, AccelKind, Context, TraversalStats};
 use raytracer::geometry::Ray;
 use raytracer::integrator::T_MIN;
 use raytracer::scene::{Overrides, Scene, SceneSource};
@@ -38,7 +38,7 @@ fn subdivided(name: &str, levels: u32) -> Scene {
 fn trace_all(accel: &Accel, scene: &Scene, rays: &[Ray], stats: &mut TraversalStats) -> u64 {
     let mut sum = 0u64;
     for r in rays {
-        if let Some(h) = accel.closest_hit(scene, r, T_MIN, f32::INFINITY, stats) {
+        if let Some(h) = accel.closest_hit(Context::new(scene, stats), r, T_MIN, f32::INFINITY) {
             sum = sum
                 .wrapping_mul(0x100000001b3)
                 .wrapping_add(((h.t.to_bits() as u64) << 32) | h.id as u64);

@@ -34,7 +34,7 @@ mod common;
 
 use common::{camera_packets, camera_rays, in_lanes, shadow_packets, LanePacket, Packet};
 use raytracer::accel::packet::RayPacket;
-use raytracer::accel::{Accel, AccelKind, TraversalStats};
+use raytracer::accel::{Accel, AccelKind, Context, TraversalStats};
 use raytracer::geometry::Ray;
 use raytracer::integrator::T_MIN;
 use raytracer::scene::{Overrides, Scene};
@@ -66,7 +66,7 @@ fn trace(scene: &Scene, accel: &Accel, set: &Set) -> u32 {
         Rays::Single(rays) => {
             for r in rays {
                 n += accel
-                    .closest_hit(scene, r, T_MIN, f32::INFINITY, &mut stats)
+                    .closest_hit(Context::new(scene, &mut stats), r, T_MIN, f32::INFINITY)
                     .is_some() as u32;
             }
         }
@@ -75,11 +75,17 @@ fn trace(scene: &Scene, accel: &Accel, set: &Set) -> u32 {
                 let p = RayPacket::<f32x8>::from_lanes(lp.origin, lp.dir, lp.active);
                 if set.occlusion {
                     let light = &scene.lights[0];
-                    let v =
-                        accel.light_visible_packet(scene, &p, T_MIN, light, lp.active, &mut stats);
+                    let v = accel.light_visible_packet(
+                        Context::new(scene, &mut stats),
+                        &p,
+                        T_MIN,
+                        light,
+                        lp.active,
+                        None,
+                    );
                     n += v.count_ones();
                 } else {
-                    let hits = accel.closest_hit_packet(scene, &p, T_MIN, &mut stats);
+                    let hits = accel.closest_hit_packet(Context::new(scene, &mut stats), &p, T_MIN);
                     n += (hits.found & lp.active).count_ones();
                 }
             }

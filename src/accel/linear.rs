@@ -2,7 +2,7 @@
 //! against.
 
 use super::bvh::{Closest, RayQuery};
-use super::TraversalStats;
+use super::Context;
 use crate::geometry::aabb::SlabRay;
 use crate::geometry::{Aabb, Hit, PrimKind, Ray};
 use crate::scene::Scene;
@@ -53,16 +53,10 @@ impl LinearScan {
     /// Every sphere and quad, then every triangle of each object whose box the ray
     /// meets, through the BVH's leaf loops (`Closest::range`), which keep the smallest
     /// `(t, id)` whatever the order.
-    pub fn closest_hit(
-        &self,
-        scene: &Scene,
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-        stats: &mut TraversalStats,
-    ) -> Option<Hit> {
+    pub fn closest_hit(&self, cx: Context<'_>, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        let scene = cx.scene;
         let mut c = Closest::new(t_max, &None);
-        let (mut rq, _) = RayQuery::with_reciprocals(scene, ray, stats);
+        let (mut rq, _) = RayQuery::with_reciprocals(cx, ray);
         for (kind, n) in [
             (PrimKind::Sphere, scene.spheres.len()),
             (PrimKind::Quad, scene.quads.len()),

@@ -110,6 +110,32 @@ pub struct TraversalStats {
     pub packet_lanes: u64,
 }
 
+/// What every query of an acceleration structure reads and writes besides its rays: the
+/// scene the structure was built for, and the statistics its work adds to. One value
+/// through the whole query; the traversals start their own contexts from it
+/// (`bvh::single::RayQuery` for one ray, `packet::PacketQuery` for a packet). Passed by
+/// value (two pointers, in two registers): `reborrow` for each of several calls.
+pub struct Context<'a> {
+    pub scene: &'a Scene,
+    pub stats: &'a mut TraversalStats,
+}
+
+impl<'a> Context<'a> {
+    #[inline(always)]
+    pub fn new(scene: &'a Scene, stats: &'a mut TraversalStats) -> Self {
+        Context { scene, stats }
+    }
+
+    /// The same scene and statistics for one call, `self` usable again after it.
+    #[inline(always)]
+    pub fn reborrow(&mut self) -> Context<'_> {
+        Context {
+            scene: self.scene,
+            stats: self.stats,
+        }
+    }
+}
+
 impl TraversalStats {
     /// Add `o`'s counts to these.
     pub fn add(&mut self, o: &TraversalStats) {
@@ -188,18 +214,11 @@ impl Accel {
 
     /// The closest hit in `[t_min, t_max]` by the `(t, primitive id)` rule.
     #[inline]
-    pub fn closest_hit(
-        &self,
-        scene: &Scene,
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-        stats: &mut TraversalStats,
-    ) -> Option<Hit> {
+    pub fn closest_hit(&self, cx: Context<'_>, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         debug_assert_finite(ray);
         match self {
-            Accel::Linear(l) => l.closest_hit(scene, ray, t_min, t_max, stats),
-            Accel::Bvh(b) => b.closest_hit(scene, ray, t_min, t_max, stats),
+            Accel::Linear(l) => l.closest_hit(cx, ray, t_min, t_max),
+            Accel::Bvh(b) => b.closest_hit(cx, ray, t_min, t_max),
         }
     }
 
@@ -208,20 +227,13 @@ impl Accel {
     /// closest-hit query; the BVH finds the light's own nearest hit and then looks for any
     /// occluder before it.
     #[inline]
-    pub fn light_visible(
-        &self,
-        scene: &Scene,
-        ray: &Ray,
-        t_min: f32,
-        light: &Light,
-        stats: &mut TraversalStats,
-    ) -> bool {
+    pub fn light_visible(&self, cx: Context<'_>, ray: &Ray, t_min: f32, light: &Light) -> bool {
         debug_assert_finite(ray);
         match self {
             Accel::Linear(l) => l
-                .closest_hit(scene, ray, t_min, f32::INFINITY, stats)
+                .closest_hit(cx, ray, t_min, f32::INFINITY)
                 .is_some_and(|h| h.object == light.object),
-            Accel::Bvh(b) => b.light_visible(scene, ray, t_min, light, stats),
+            Accel::Bvh(b) => b.light_visible(cx, ray, t_min, light),
         }
     }
 
@@ -241,35 +253,37 @@ impl Accel {
     #[inline]
     pub fn closest_hit_packet<L: Lane>(
         &self,
-        scene: &Scene,
+        mut cx: Context<'_>,
         p: &RayPacket<L>,
         t_min: f32,
-        stats: &mut TraversalStats,
     ) -> PacketHits<L> {
         debug_assert_lanes_finite(p, p.active);
         match self {
             Accel::Linear(l) => {
                 let mut hits = PacketHits::none(p.active);
                 for k in set_lanes(p.active) {
-                    let hit = l.closest_hit(scene, &p.ray(k), t_min, f32::INFINITY, stats);
+                    let hit = l.closest_hit(cx.reborrow(), &p.ray(k), t_min, f32::INFINITY);
                     hits.set(k, hit.map_or(f32::INFINITY, |h| h.t), hit);
                 }
                 hits
             }
-            Accel::Bvh(b) => b.closest_hit_packet(scene, p, t_min, stats),
+            Accel::Bvh(b) => b.closest_hit_packet(cx, p, t_min),
         }
     }
 
     /// `light_visible` for the lanes of `lanes`: the mask of those that see the light.
+    /// `among`: the only primitives that can occlude, when known
+    /// (`shadow::ShadowBoxes::candidates` of the lanes' origins, for the BVH whose scene
+    /// they were made for; the linear scan tests everything).
     #[inline]
     pub fn light_visible_packet<L: Lane>(
         &self,
-        scene: &Scene,
+        mut cx: Context<'_>,
         p: &RayPacket<L>,
         t_min: f32,
         light: &Light,
         lanes: u32,
-        stats: &mut TraversalStats,
+        among: Option<Candidates<'_>>,
     ) -> u32 {
         let lanes = lanes & p.active;
         debug_assert_lanes_finite(p, lanes);
@@ -277,38 +291,13 @@ impl Accel {
             Accel::Linear(_) => {
                 let mut visible = 0;
                 for k in set_lanes(lanes) {
-                    if self.light_visible(scene, &p.ray(k), t_min, light, stats) {
+                    if self.light_visible(cx.reborrow(), &p.ray(k), t_min, light) {
                         visible |= 1 << k;
                     }
                 }
                 visible
             }
-            Accel::Bvh(b) => b.light_visible_packet(scene, p, t_min, light, lanes, None, stats),
-        }
-    }
-
-    /// `light_visible_packet` where only the primitives of `among` can occlude
-    /// (`shadow::ShadowBoxes::candidates` of the lanes' origins; the BVH only, whose
-    /// scene the `ShadowBoxes` were made for).
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
-    pub fn light_visible_packet_among<L: Lane>(
-        &self,
-        scene: &Scene,
-        p: &RayPacket<L>,
-        t_min: f32,
-        light: &Light,
-        lanes: u32,
-        among: Candidates<'_>,
-        stats: &mut TraversalStats,
-    ) -> u32 {
-        match self {
-            Accel::Linear(_) => self.light_visible_packet(scene, p, t_min, light, lanes, stats),
-            Accel::Bvh(b) => {
-                let lanes = lanes & p.active;
-                debug_assert_lanes_finite(p, lanes);
-                b.light_visible_packet(scene, p, t_min, light, lanes, Some(among), stats)
-            }
+            Accel::Bvh(b) => b.light_visible_packet(cx, p, t_min, light, lanes, among),
         }
     }
 }

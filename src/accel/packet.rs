@@ -17,7 +17,7 @@
 use super::bvh::{plane_rows, slab, Node4, FAR_SCALE, NEAR_SCALE};
 pub use super::bvh::{PacketHits, ShadowLanes};
 use crate::accel::cull::Cull;
-use crate::accel::TraversalStats;
+use crate::accel::{Context, TraversalStats};
 use crate::geometry::quad::{
     inside_quad, outer_edge_is_zero, plane_distance, quad_edge_functions, Quad,
 };
@@ -706,18 +706,23 @@ pub(crate) struct PacketQuery<'a, 's, L: Lane> {
 
 impl<'a, 's, L: Lane> PacketQuery<'a, 's, L> {
     #[inline(always)]
-    pub(crate) fn new(
-        scene: &'a Scene,
-        p: &'a RayPacket<L>,
-        stats: &'s mut TraversalStats,
-    ) -> Self {
-        let tris = LazyTriangles::new(p, scene);
+    pub(crate) fn new(cx: Context<'s>, p: &'a RayPacket<L>) -> Self
+    where
+        's: 'a,
+    {
+        let tris = LazyTriangles::new(p, cx.scene);
         PacketQuery {
-            scene,
+            scene: cx.scene,
             p,
             tris,
-            stats,
+            stats: cx.stats,
         }
+    }
+
+    /// The query's scene and statistics, for a lane finished alone (`RayQuery`).
+    #[inline(always)]
+    pub(crate) fn context(&mut self) -> Context<'_> {
+        Context::new(self.scene, self.stats)
     }
 
     /// `RayPacket::test_prim` of primitive `i` of `kind` on the lanes of `lanes`.

@@ -19,7 +19,7 @@ pub use shade::footprint;
 use crate::accel::cull::{Cone, Cull, CullTargets};
 use crate::accel::packet::{PacketHits, MAX_WIDTH};
 use crate::accel::shadow::ShadowBoxes;
-use crate::accel::{Accel, TraversalStats};
+use crate::accel::{Accel, Context, TraversalStats};
 use crate::geometry::spawn::{planar_point_lanes, spawn_ray, sphere_point_lanes, ErrorPoint};
 use crate::geometry::sphere::SpherePool;
 use crate::geometry::QuadPool;
@@ -254,8 +254,8 @@ impl<'a> Tracer<'a> {
 
     #[inline]
     pub fn closest_hit(&self, ray: &Ray, counts: &mut RayCounts) -> Option<Hit> {
-        self.accel
-            .closest_hit(self.scene, ray, T_MIN, f32::INFINITY, &mut counts.traversal)
+        let cx = Context::new(self.scene, &mut counts.traversal);
+        self.accel.closest_hit(cx, ray, T_MIN, f32::INFINITY)
     }
 
     /// Position, facing normal and side of a hit.

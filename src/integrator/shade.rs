@@ -27,6 +27,7 @@ use super::{
 use crate::accel::cull::Cull;
 use crate::accel::packet::{PacketHits, RayPacket, MAX_WIDTH};
 use crate::accel::shadow::{origins_box, Candidates};
+use crate::accel::Context;
 use crate::geometry::spawn::{spawn_origin, spawn_origins};
 use crate::geometry::Ray;
 use crate::lanes::math::pow;
@@ -349,8 +350,8 @@ impl Tracer<'_> {
             counts.packets_outside += 1;
             return PacketHits::none(paths.active);
         }
-        self.accel
-            .closest_hit_packet(scene, &packet, T_MIN, &mut counts.traversal)
+        let cx = Context::new(scene, &mut counts.traversal);
+        self.accel.closest_hit_packet(cx, &packet, T_MIN)
     }
 
     /// Shade the lanes' hits at path vertex `vertex`: add what the lanes whose path ends
@@ -648,21 +649,16 @@ impl Tracer<'_> {
         counts: &mut RayCounts,
     ) -> u32 {
         counts.shadow += lanes.count_ones() as u64;
-        let (scene, stats) = (self.scene, &mut counts.traversal);
         if L::WIDTH == 1 {
             let ray = Ray::new(origin.lane(0), l.lane(0));
-            return self.accel.light_visible(scene, &ray, T_MIN, light, stats) as u32;
+            let cx = Context::new(self.scene, &mut counts.traversal);
+            return self.accel.light_visible(cx, &ray, T_MIN, light) as u32;
         }
         counts.shadow_packets.record(lanes);
         let p = RayPacket::<L>::from_active_lanes_with(origin, l, lanes, self.packet_boxes);
-        match among {
-            Some(c) => self
-                .accel
-                .light_visible_packet_among(scene, &p, T_MIN, light, lanes, c, stats),
-            None => self
-                .accel
-                .light_visible_packet(scene, &p, T_MIN, light, lanes, stats),
-        }
+        let cx = Context::new(self.scene, &mut counts.traversal);
+        self.accel
+            .light_visible_packet(cx, &p, T_MIN, light, lanes, among)
     }
 }
 

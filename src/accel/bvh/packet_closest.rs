@@ -6,10 +6,9 @@ use super::single::RayQuery;
 use super::Bvh;
 use crate::accel::packet::{ids, in_play, PacketQuery, RayPacket, MAX_WIDTH};
 use crate::accel::stack::{TraversalStack, STACK4, STACK8};
-use crate::accel::TraversalStats;
+use crate::accel::Context;
 use crate::geometry::{beats, Hit, PrimKind};
 use crate::lanes::{set_lanes, Lane, Mask};
-use crate::scene::Scene;
 use std::mem::MaybeUninit;
 use wide::f32x8;
 
@@ -302,12 +301,11 @@ impl Bvh {
     /// returns it for that lane's ray.
     pub fn closest_hit_packet<L: Lane>(
         &self,
-        scene: &Scene,
+        cx: Context<'_>,
         p: &RayPacket<L>,
         t_min: f32,
-        stats: &mut TraversalStats,
     ) -> PacketHits<L> {
-        let q = &mut PacketQuery::new(scene, p, stats);
+        let q = &mut PacketQuery::new(cx, p);
         let mut st = PacketHits::none(p.active);
         for (k, &kind) in PrimKind::ALL.iter().enumerate() {
             let range = self.linear[k].clone();
@@ -396,7 +394,7 @@ impl Bvh {
                     if bits.count_ones() <= fallback {
                         for k in set_lanes(bits) {
                             let ray = p.ray(k);
-                            let (mut rq, bray) = RayQuery::with_box4(scene, &ray, q.stats);
+                            let (mut rq, bray) = RayQuery::with_box4(q.context(), &ray);
                             let mut t_max = st.t.lane(k);
                             let mut best = st.hit(k);
                             let (t_max, best) = (&mut t_max, &mut best);

@@ -8,10 +8,10 @@ use super::Bvh;
 use crate::accel::packet::{ids, in_play, PacketQuery, RayPacket, MAX_WIDTH};
 use crate::accel::shadow::Candidates;
 use crate::accel::stack::{TraversalStack, STACK4};
-use crate::accel::{ShadowQuery, TraversalStats};
+use crate::accel::{Context, ShadowQuery};
 use crate::geometry::PrimKind;
 use crate::lanes::{set_lanes, Lane, Mask};
-use crate::scene::{Light, LightShape, Scene};
+use crate::scene::{Light, LightShape};
 use std::mem::MaybeUninit;
 
 /// `ShadowQuery` in lanes: per lane the light object's own nearest hit `(t_light,
@@ -158,12 +158,12 @@ impl Bvh {
     /// finds occluded, exactly as `occluded` answers for each lane's ray.
     pub fn occluded_packet<L: Lane>(
         &self,
-        scene: &Scene,
+        cx: Context<'_>,
         p: &RayPacket<L>,
         mut light: ShadowLanes<L>,
         lanes: u32,
-        stats: &mut TraversalStats,
     ) -> u32 {
+        let scene = cx.scene;
         // The kind of the object's primitives when it is a light (an object is one
         // sphere, quads or triangles); `None`: any kind may be the object's.
         light.kind = scene
@@ -171,7 +171,7 @@ impl Bvh {
             .iter()
             .find(|l| l.object == light.object)
             .map(|l| light_kind(&l.shape));
-        self.occluded_lanes(&mut PacketQuery::new(scene, p, stats), light, lanes)
+        self.occluded_lanes(&mut PacketQuery::new(cx, p), light, lanes)
     }
 
     /// `Accel::light_visible` for the active lanes of `p` in `lanes`: the mask of those
@@ -179,19 +179,17 @@ impl Bvh {
     /// watertight lanes (made once, at the first quad or triangle edge test). With
     /// `among` (`shadow::Candidates` of the lanes' origins), only those primitives are
     /// tested as occluders, without the tree.
-    #[allow(clippy::too_many_arguments)]
     pub fn light_visible_packet<L: Lane>(
         &self,
-        scene: &Scene,
+        cx: Context<'_>,
         p: &RayPacket<L>,
         t_min: f32,
         light: &Light,
         lanes: u32,
         among: Option<Candidates<'_>>,
-        stats: &mut TraversalStats,
     ) -> u32 {
         let lanes = lanes & p.active;
-        let mut q = PacketQuery::new(scene, p, stats);
+        let mut q = PacketQuery::new(cx, p);
         let (t_light, id_light, reach) = match &light.shape {
             LightShape::Point { center, radius } => {
                 // `nearest_hit` of a point light, lane-wise.
@@ -317,7 +315,7 @@ impl Bvh {
                     if bits.count_ones() <= fallback {
                         for k in set_lanes(bits) {
                             let ray = p.ray(k);
-                            let (mut rq, bray) = RayQuery::with_box4(q.scene, &ray, q.stats);
+                            let (mut rq, bray) = RayQuery::with_box4(q.context(), &ray);
                             if self.occluded_from(&mut rq, child, &bray, light.lane(k)) {
                                 found |= 1 << k;
                             }

@@ -11,7 +11,7 @@ use super::node::{decode_leaf, BoxRay, Wide, LEAF};
 use super::node8::BoxRay8;
 use super::{Beside, Bvh, SPHERE_GROUP};
 use crate::accel::stack::{TraversalStack, STACK4, STACK8};
-use crate::accel::{ShadowQuery, TraversalStats};
+use crate::accel::{Context, ShadowQuery, TraversalStats};
 use crate::geometry::sphere::{sphere_intersect_with, SphereRay};
 use crate::geometry::triangle::{Columns, WatertightRay};
 use crate::geometry::{beats, Hit, PrimKind, Ray};
@@ -40,26 +40,18 @@ pub(crate) struct RayQuery<'r, 's> {
     triangle: Option<WatertightRay>,
 }
 
-impl<'r, 's> RayQuery<'r, 's> {
+impl<'r, 's: 'r> RayQuery<'r, 's> {
     /// The query, and the box test's constants for the 4-wide tree (which the lanes a
     /// packet finishes alone traverse).
     #[inline(always)]
-    pub(crate) fn with_box4(
-        scene: &'r Scene,
-        ray: &'r Ray,
-        stats: &'s mut TraversalStats,
-    ) -> (Self, BoxRay) {
-        let (rq, q) = Self::with_reciprocals(scene, ray, stats);
+    pub(crate) fn with_box4(cx: Context<'s>, ray: &'r Ray) -> (Self, BoxRay) {
+        let (rq, q) = Self::with_reciprocals(cx, ray);
         (rq, BoxRay::from_inv(ray, q.truncate()))
     }
 
     /// The query and (1/dx, 1/dy, 1/dz, 1/(d·d)).
     #[inline(always)]
-    pub(crate) fn with_reciprocals(
-        scene: &'r Scene,
-        ray: &'r Ray,
-        stats: &'s mut TraversalStats,
-    ) -> (Self, Vec4) {
+    pub(crate) fn with_reciprocals(cx: Context<'s>, ray: &'r Ray) -> (Self, Vec4) {
         let d = ray.dir;
         let a = d.dot(d);
         let q = Vec4::ONE / Vec4::new(d.x, d.y, d.z, a);
@@ -70,15 +62,17 @@ impl<'r, 's> RayQuery<'r, 's> {
             inv_a: q.w,
         };
         let rq = RayQuery {
-            scene,
-            stats,
+            scene: cx.scene,
+            stats: cx.stats,
             ray,
             sphere,
             triangle: None,
         };
         (rq, q)
     }
+}
 
+impl<'r, 's> RayQuery<'r, 's> {
     /// The ray's watertight constants, made in line at the first quad test that needs
     /// them. Made out of line (`watertight_ray`) and copied out of its return slot, the
     /// copy's wide loads read what the callee had just stored a field at a time, which
@@ -266,15 +260,9 @@ impl Closest {
 impl Bvh {
     /// Closest hit in `[t_min, t_max]` by the `(t, id)` rule.
     #[inline]
-    pub fn closest_hit(
-        &self,
-        scene: &Scene,
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-        stats: &mut TraversalStats,
-    ) -> Option<Hit> {
-        let (mut rq, q) = RayQuery::with_reciprocals(scene, ray, stats);
+    pub fn closest_hit(&self, cx: Context<'_>, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        let scene = cx.scene;
+        let (mut rq, q) = RayQuery::with_reciprocals(cx, ray);
         let mut c = Closest::new(t_max, &None);
         // The tree first, the spheres beside it after: their test (a square root and a
         // division) then does not delay the root's box test, which would wait for the
@@ -373,14 +361,8 @@ impl Bvh {
 
     /// Does a primitive occlude the light by `query`'s rule (`ShadowQuery`)? Stops at
     /// the first occluder.
-    pub fn occluded(
-        &self,
-        scene: &Scene,
-        ray: &Ray,
-        query: ShadowQuery,
-        stats: &mut TraversalStats,
-    ) -> bool {
-        let (mut rq, q) = RayQuery::with_reciprocals(scene, ray, stats);
+    pub fn occluded(&self, cx: Context<'_>, ray: &Ray, query: ShadowQuery) -> bool {
+        let (mut rq, q) = RayQuery::with_reciprocals(cx, ray);
         self.occluded_consts(&mut rq, q, query)
     }
 
@@ -390,15 +372,8 @@ impl Bvh {
     /// light, the spheres and a quad whose plane the ray does not meet before the light
     /// need none: `mixed` and `spheres` shadow rays test no triangle or quad edges at
     /// all).
-    pub fn light_visible(
-        &self,
-        scene: &Scene,
-        ray: &Ray,
-        t_min: f32,
-        light: &Light,
-        stats: &mut TraversalStats,
-    ) -> bool {
-        let (mut rq, q) = RayQuery::with_reciprocals(scene, ray, stats);
+    pub fn light_visible(&self, cx: Context<'_>, ray: &Ray, t_min: f32, light: &Light) -> bool {
+        let (mut rq, q) = RayQuery::with_reciprocals(cx, ray);
         let own = match light.shape {
             LightShape::Point { center, radius } => {
                 sphere_intersect_with(center, radius, &rq.sphere, t_min, f32::INFINITY)
