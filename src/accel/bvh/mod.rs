@@ -137,6 +137,46 @@ impl SphereLanes {
 const SPHERE_GROUP: usize = 8;
 
 impl Bvh {
+    /// The packet traversals' loop over the primitives beside the tree: `visit(kind,
+    /// run)` for each run of one kind that `kept` keeps (bit i of `kept[k]`: the i-th
+    /// primitive of kind k beside the tree, those past the 32nd always kept;
+    /// `Cull::ALL`'s all-ones keeps whole pools), in pool order, until `visit` returns
+    /// false. Inlined with its closure, each call's kind is a constant where the caller
+    /// specialises on it (`PrimKind::specialize`).
+    #[inline(always)]
+    pub(super) fn beside_runs(
+        &self,
+        kept: &[u32; 3],
+        mut visit: impl FnMut(PrimKind, Range<usize>) -> bool,
+    ) {
+        for (k, &kind) in PrimKind::ALL.iter().enumerate() {
+            let range = self.linear[k].clone();
+            // (Not for an empty range: an empty pool must not make the watertight
+            // lanes, `LazyTriangles::get`.)
+            if range.is_empty() {
+                continue;
+            }
+            if kept[k] == u32::MAX {
+                if !visit(kind, range) {
+                    return;
+                }
+                continue;
+            }
+            let first = range.start;
+            let n = range.len().min(32);
+            let mut bits = kept[k] & if n == 32 { u32::MAX } else { (1 << n) - 1 };
+            while bits != 0 {
+                let i = first + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                if !visit(kind, i..i + 1) {
+                    return;
+                }
+            }
+            if range.len() > 32 && !visit(kind, first + 32..range.end) {
+                return;
+            }
+        }
+    }
     /// Build over the scene's pools (kinds above `LINEAR_LIMIT`), reordering those pools
     /// so every leaf is a contiguous range.
     pub fn build(scene: &mut Scene) -> Bvh {

@@ -307,34 +307,15 @@ impl Bvh {
     ) -> PacketHits<L> {
         let q = &mut PacketQuery::new(cx, p);
         let mut st = PacketHits::none(p.active);
-        for (k, &kind) in PrimKind::ALL.iter().enumerate() {
-            let range = self.linear[k].clone();
-            // (Not for an empty range: an empty pool must not make the watertight
-            // lanes, `LazyTriangles::get`.)
-            if range.is_empty() {
-                continue;
-            }
-            if p.cull.beside[k] == u32::MAX {
-                q.stats.prims += (range.len() * p.active.count_ones() as usize) as u64;
-                kind.specialize(|k| st.leaf(q, k, range, t_min, p.active));
-                continue;
-            }
-            // The primitives the cull keeps (past the 32nd, all), in pool order.
-            let first = range.start;
-            let n = range.len().min(32);
-            let mut kept = p.cull.beside[k] & if n == 32 { u32::MAX } else { (1 << n) - 1 };
-            while kept != 0 {
-                let i = first + kept.trailing_zeros() as usize;
-                kept &= kept - 1;
-                q.stats.prims += p.active.count_ones() as u64;
-                kind.specialize(|k| st.leaf(q, k, i..i + 1, t_min, p.active));
-            }
-            if range.len() > 32 {
-                let rest = first + 32..range.end;
-                q.stats.prims += (rest.len() * p.active.count_ones() as usize) as u64;
-                kind.specialize(|k| st.leaf(q, k, rest, t_min, p.active));
-            }
-        }
+        self.beside_runs(
+            &p.cull.beside,
+            #[inline(always)]
+            |kind, run| {
+                q.stats.prims += (run.len() * p.active.count_ones() as usize) as u64;
+                kind.specialize(|k| st.leaf(q, k, run, t_min, p.active));
+                true
+            },
+        );
         let Some(root) = self.root else {
             return st;
         };

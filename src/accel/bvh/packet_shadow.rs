@@ -248,16 +248,21 @@ impl Bvh {
         // Lanes not tested get t_max = −∞ (no box or primitive test passes).
         let t_min = light.t_min;
         let mut t_max = in_play(remaining, light.t_light);
-        for (k, &kind) in PrimKind::ALL.iter().enumerate() {
-            let range = self.linear[k].clone();
-            if !range.is_empty() && remaining != 0 {
-                q.stats.prims += (range.len() * remaining.count_ones() as usize) as u64;
+        self.beside_runs(
+            &[u32::MAX; 3],
+            #[inline(always)]
+            |kind, run| {
+                if remaining == 0 {
+                    return false;
+                }
+                q.stats.prims += (run.len() * remaining.count_ones() as usize) as u64;
                 let l = remaining;
-                let found = kind.specialize(|k| occluders(q, light, k, range, l, t_max));
+                let found = kind.specialize(|k| occluders(q, light, k, run, l, t_max));
                 occluded |= found;
                 remaining &= !found;
-            }
-        }
+                true
+            },
+        );
         let Some(root) = self.root else {
             return occluded;
         };
