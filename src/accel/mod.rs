@@ -115,6 +115,7 @@ pub struct TraversalStats {
 /// through the whole query; the traversals start their own contexts from it
 /// (`bvh::single::RayQuery` for one ray, `packet::PacketQuery` for a packet). Passed by
 /// value (two pointers, in two registers): `reborrow` for each of several calls.
+#[derive(Debug)]
 pub struct Context<'a> {
     pub scene: &'a Scene,
     pub stats: &'a mut TraversalStats,

@@ -177,6 +177,7 @@ impl Bvh {
             }
         }
     }
+
     /// Build over the scene's pools (kinds above `LINEAR_LIMIT`), reordering those pools
     /// so every leaf is a contiguous range.
     pub fn build(scene: &mut Scene) -> Bvh {
