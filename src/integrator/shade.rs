@@ -370,18 +370,24 @@ impl Tracer<'_> {
         let found = hits.found & active;
         let object = hits.objects();
         // The lanes by how their hit is shaded, and the Phong material when every Phong
-        // lane has the same one. One lane: its class from the table, each class's mask
-        // by a compare with it (in registers; a store at the class's index went through
-        // memory and every mask was read back from there). Few objects: one lane
-        // compare per object. Else a table lookup per lane.
-        let (by_class, uniform_phong) = if L::WIDTH == 1 {
+        // lane has the same one. All hits on one object (one lane; most packets): its
+        // class from the table, each class's mask by a compare with it (in registers; a
+        // store at the class's index went through memory and every mask was read back
+        // from there). Few objects: one lane compare per object. Else a table lookup
+        // per lane.
+        let first = found.trailing_zeros() as usize;
+        let one_object = L::WIDTH == 1 || found == 0 || hits.of_object(object[first]) == found;
+        let (by_class, uniform_phong) = if one_object {
             let slot = if found != 0 {
-                object[0] as usize + 1
+                object[first] as usize + 1
             } else {
                 0
             };
             let class = t.class[slot] as usize;
-            let by_class = std::array::from_fn(|c| if c == class { active } else { 0 });
+            let missed = active & !found;
+            let by_class = std::array::from_fn(|c| {
+                (if c == class { found } else { 0 }) | (if c == MISS { missed } else { 0 })
+            });
             (by_class, t.phong_of[slot])
         } else if t.few {
             let mut by_class = [0u32; CLASSES];
