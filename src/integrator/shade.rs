@@ -337,8 +337,10 @@ impl Tracer<'_> {
             return hits;
         }
         let (o, d) = (paths.origin, paths.dir);
-        let packet = RayPacket::from_active_lanes_with(o, d, paths.active, self.packet_boxes)
-            .with_cull(camera.unwrap_or(Cull::ALL));
+        let mut packet = RayPacket::from_active_lanes_with(o, d, paths.active, self.packet_boxes);
+        if let Some(cull) = camera {
+            packet.set_cull(cull);
+        }
         // A camera inside the scene's box (bunny's ground sphere holds it) needs no box
         // test: every ray meets it. Skipping an early-out never changes a result.
         let inside = camera.is_some() && self.camera_inside;
