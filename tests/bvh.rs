@@ -295,7 +295,7 @@ fn many_spheres_on_a_huge_ground_sphere() {
         unreachable!()
     };
     assert_eq!(b.linear.clone().map(|r| r.len()), [1, 0, 0]);
-    assert_eq!(tree_scene.spheres.radius[b.linear[0].start], 1000.0);
+    assert_eq!(tree_scene.spheres.radius(b.linear[0].start), 1000.0);
     let l = render_with(&scene, AccelKind::Linear, 2, 3);
     let t = render_with(&scene, AccelKind::Bvh, 2, 3);
     assert_eq!(bits(&l.film), bits(&t.film));

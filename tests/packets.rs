@@ -673,7 +673,7 @@ fn shadow_candidates_keep_every_occluder() {
                 let Some(among) = boxes.candidates(li, &region) else {
                     continue;
                 };
-                let own = (scene.spheres.object.iter())
+                let own = (scene.spheres.objects().iter())
                     .chain(&scene.quads.object)
                     .chain(&scene.triangles.object)
                     .filter(|&&o| o == light.object)

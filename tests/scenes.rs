@@ -175,10 +175,10 @@ fn the_embree_comparison_scenes_cut_down_the_builtin_ones() {
         if spheres == 1 {
             let l = |s: &Scene| {
                 (
-                    s.spheres.cx[0],
-                    s.spheres.cy[0],
-                    s.spheres.cz[0],
-                    s.spheres.radius[0],
+                    s.spheres.center(0).x,
+                    s.spheres.center(0).y,
+                    s.spheres.center(0).z,
+                    s.spheres.radius(0),
                 )
             };
             assert_eq!(l(&cut), l(&full), "{file}: the light's sphere");

@@ -178,7 +178,7 @@ fn main() -> std::io::Result<()> {
     println!(
         "ours: {} triangles, {} spheres, build {:.2} ms (AVX2 compiled in: {})",
         scene.triangles.len(),
-        scene.spheres.cx.len(),
+        scene.spheres.len(),
         build.as_secs_f64() * 1e3,
         raytracer::lanes::AVX2
     );
@@ -226,9 +226,10 @@ fn write(path: &str, scene: &Scene, sets: &[Set]) -> std::io::Result<()> {
         }
     }
     let sp = &scene.spheres;
-    out.extend_from_slice(&(sp.cx.len() as u32).to_le_bytes());
-    for i in 0..sp.cx.len() {
-        push_f32s(&mut out, &[sp.cx[i], sp.cy[i], sp.cz[i], sp.radius[i]]);
+    out.extend_from_slice(&(sp.len() as u32).to_le_bytes());
+    for i in 0..sp.len() {
+        let c = sp.center(i);
+        push_f32s(&mut out, &[c.x, c.y, c.z, sp.radius(i)]);
     }
     push_f32s(&mut out, &[T_MIN]);
     out.extend_from_slice(&(sets.len() as u32).to_le_bytes());

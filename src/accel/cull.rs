@@ -201,7 +201,7 @@ impl CullTargets {
             b.linear[0]
                 .clone()
                 .take(32)
-                .map(|i| (s.center(i).as_dvec3(), s.radius[i].abs() as f64))
+                .map(|i| (s.center(i).as_dvec3(), s.radius(i).abs() as f64))
                 .collect(),
             balls(b.linear[1].clone(), |s, i| s.quads.bounds(i)),
             balls(b.linear[2].clone(), |s, i| s.triangles.bounds(i)),

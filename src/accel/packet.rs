@@ -489,7 +489,7 @@ impl<L: Lane> RayPacket<L> {
                 let s = &scene.spheres;
                 let (t, hit) = sphere_distance::<L>(
                     V3::splat(s.center(i)),
-                    L::splat(s.radius[i]),
+                    L::splat(s.radius(i)),
                     self.origin,
                     self.dir,
                     self.sphere_a,
@@ -743,7 +743,7 @@ impl<'a, 's, L: Lane> PacketQuery<'a, 's, L> {
 #[inline(always)]
 pub(crate) fn ids(scene: &Scene, kind: PrimKind, i: usize) -> (u32, u32) {
     match kind {
-        PrimKind::Sphere => (scene.spheres.id[i], scene.spheres.object[i]),
+        PrimKind::Sphere => (scene.spheres.id(i), scene.spheres.object(i)),
         PrimKind::Quad => (scene.quads.id[i], scene.quads.object[i]),
         PrimKind::Triangle => (scene.triangles.id[i], scene.triangles.object[i]),
     }

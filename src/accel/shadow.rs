@@ -81,7 +81,7 @@ impl ShadowBoxes {
             .chain((0..nq).map(|i| scene.quads.bounds(i)))
             .chain((0..scene.triangles.len()).map(|i| scene.triangles.bounds(i)))
             .collect();
-        let objects: Vec<u32> = (scene.spheres.object.iter())
+        let objects: Vec<u32> = (scene.spheres.objects().iter())
             .chain(&scene.quads.object)
             .chain(&scene.triangles.object)
             .copied()

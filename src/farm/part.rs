@@ -460,14 +460,7 @@ pub fn scene_digest(scene: &Scene) -> String {
     h.u32s("spp, max_depth", 2, [*spp, *max_depth]);
     h.vec3s("background, ambient", 2, [*background, *ambient]);
 
-    let crate::geometry::SpherePool {
-        cx,
-        cy,
-        cz,
-        radius,
-        id,
-        object,
-    } = spheres;
+    let ([cx, cy, cz, radius], id, object) = spheres.columns();
     let order = id_order(id);
     for (label, v) in [
         ("sphere cx", cx),
@@ -691,7 +684,8 @@ mod tests {
         s.quads.object.swap(0, 1);
         changes.push(("quad objects", s));
         let mut s = base.clone();
-        s.spheres.radius[0] *= 2.0;
+        s.spheres
+            .set(0, s.spheres.center(0), 2.0 * s.spheres.radius(0));
         changes.push(("a sphere radius", s));
         let mut s = base.clone();
         s.materials.swap(0, 1);
@@ -731,7 +725,7 @@ mod tests {
                 let mut built = compiled.clone();
                 Accel::build(&mut built, kind);
                 assert_eq!(scene_digest(&built), d, "{name} {kind:?}");
-                let ids = [&built.spheres.id, &built.quads.id, &built.triangles.id];
+                let ids = [built.spheres.ids(), &built.quads.id, &built.triangles.id];
                 reordered += ids.iter().filter(|id| !id.is_sorted()).count();
             }
         }

@@ -278,7 +278,7 @@ impl<'a> Tracer<'a> {
         let scene = self.scene;
         match hit.kind {
             PrimKind::Sphere => {
-                let (c, r) = (scene.spheres.center(i), scene.spheres.radius[i]);
+                let (c, r) = (scene.spheres.center(i), scene.spheres.radius(i));
                 let (p, e, n) = sphere_point_lanes::<f32>(V3::splat(c), r, V3::splat(on_ray));
                 let p = ErrorPoint {
                     point: p.lane(0),
@@ -336,8 +336,7 @@ impl<'a> Tracer<'a> {
             // Most packets hit one sphere (a ground, a mirror): then no gathers.
             let (c, r) = if all_equal(&i, L::WIDTH) {
                 let j = i[0];
-                let c = Vec3::new(pool.cx[j], pool.cy[j], pool.cz[j]);
-                (V3::splat(c), L::splat(pool.radius[j]))
+                (V3::splat(pool.center(j)), L::splat(pool.radius(j)))
             } else {
                 gather_spheres(pool, &i)
             };
@@ -534,12 +533,13 @@ pub fn mirror_fresnel<L: Lane>(d: V3<L>, n: V3<L>, index: L) -> L {
 #[cold]
 #[inline(never)]
 fn gather_spheres<L: Lane>(pool: &SpherePool, i: &[usize; MAX_WIDTH]) -> (V3<L>, L) {
+    let c: [Vec3; MAX_WIDTH] = std::array::from_fn(|k| pool.center(i[k]));
     let c = V3::new(
-        L::from_fn(|k| pool.cx[i[k]]),
-        L::from_fn(|k| pool.cy[i[k]]),
-        L::from_fn(|k| pool.cz[i[k]]),
+        L::from_fn(|k| c[k].x),
+        L::from_fn(|k| c[k].y),
+        L::from_fn(|k| c[k].z),
     );
-    (c, L::from_fn(|k| pool.radius[i[k]]))
+    (c, L::from_fn(|k| pool.radius(i[k])))
 }
 
 /// A quad's corner, edges u and v, plane vector w and normal, in lanes.

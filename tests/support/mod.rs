@@ -181,9 +181,8 @@ pub fn transform_scene(scene: &Scene, scale: f32, offset: glam::Vec3) -> Scene {
     };
     let mut s = scene.clone();
     for i in 0..s.spheres.len() {
-        let c = p(s.spheres.center(i));
-        (s.spheres.cx[i], s.spheres.cy[i], s.spheres.cz[i]) = (c.x, c.y, c.z);
-        s.spheres.radius[i] *= scale;
+        let (c, r) = (p(s.spheres.center(i)), s.spheres.radius(i) * scale);
+        s.spheres.set(i, c, r);
     }
     let quads = std::mem::take(&mut s.quads);
     s.quads = QuadPool::default();

@@ -420,9 +420,10 @@ fn pack_spheres(sp: &SpherePool, range: Range<usize>) -> Vec<SphereLanes> {
                 }
             };
             let v8 = |v: &[f32]| f32x8::new(std::array::from_fn(|k| lane(v, k)));
+            let ([cx, cy, cz, radius], ..) = sp.columns();
             SphereLanes {
-                center: V3::new(v8(&sp.cx), v8(&sp.cy), v8(&sp.cz)),
-                radius: v8(&sp.radius),
+                center: V3::new(v8(cx), v8(cy), v8(cz)),
+                radius: v8(radius),
                 valid: (1u32 << (range.end - start).min(SPHERE_GROUP)) - 1,
             }
         })

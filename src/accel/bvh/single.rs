@@ -181,7 +181,7 @@ impl Closest {
         }
         let i = self.index as usize;
         let object = match self.kind {
-            PrimKind::Sphere => scene.spheres.object[i],
+            PrimKind::Sphere => scene.spheres.object(i),
             PrimKind::Quad => scene.quads.object[i],
             PrimKind::Triangle => scene.triangles.object[i],
         };
@@ -231,7 +231,7 @@ impl Closest {
                 while start < range.end {
                     let n = (range.end - start).min(4);
                     let (t, mask) = s.intersect4(start, n, &rq.sphere, t_min, self.t_max);
-                    self.offer_lanes(&t, mask, start, &s.id, kind);
+                    self.offer_lanes(&t, mask, start, s.ids(), kind);
                     start += n;
                 }
             }
@@ -296,7 +296,7 @@ impl Bvh {
                 // A larger `t_max` than the scan's for the group's later spheres gives
                 // the same hits: a lane beyond the current `t_max` is not offered.
                 let first = spheres.start + SPHERE_GROUP * g;
-                c.offer_lanes(&t, mask, first, &s.id, PrimKind::Sphere);
+                c.offer_lanes(&t, mask, first, s.ids(), PrimKind::Sphere);
             }
         }
         match self.beside {
@@ -420,7 +420,7 @@ impl Bvh {
                 let (t, mask) = lanes.intersect(r, t_min, t_light);
                 let first = spheres.start + SPHERE_GROUP * g;
                 let occludes =
-                    |k: usize| query.occludes(t[k], s.id[first + k], s.object[first + k]);
+                    |k: usize| query.occludes(t[k], s.id(first + k), s.object(first + k));
                 if set_lanes(mask).any(occludes) {
                     return true;
                 }
@@ -565,9 +565,9 @@ fn occludes_range<'r>(
         PrimKind::Sphere => {
             let s = &scene.spheres;
             for i in range {
-                if s.object[i] != object
+                if s.object(i) != object
                     && s.intersect(i, &rq.sphere, t_min, t_light)
-                        .is_some_and(|t| query.beats_light(t, s.id[i]))
+                        .is_some_and(|t| query.beats_light(t, s.id(i)))
                 {
                     return true;
                 }
