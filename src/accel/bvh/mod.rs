@@ -405,7 +405,7 @@ fn collapse<const W: usize>(
 }
 
 /// The spheres `range` eight an `f32x8`, the last group padded with radius-0 spheres (which
-/// `linear_kinds` masks off).
+/// `Bvh::beside` masks off).
 fn pack_spheres(sp: &SpherePool, range: Range<usize>) -> Vec<SphereLanes> {
     range
         .clone()
