@@ -252,7 +252,7 @@ impl QuadPool {
         t_min: f32,
         t_max: f32,
     ) -> Option<f32> {
-        self.intersect_lazy(i, ray, || *w, t_min, t_max)
+        self.intersect_lazy(i, ray, || w, t_min, t_max)
     }
 
     /// `intersect` with the watertight constants from `w`, called only when the ray
@@ -262,11 +262,11 @@ impl QuadPool {
     /// (shadow rays end at their light), and the answer is the same in either order: a
     /// hit needs both.
     #[inline(always)]
-    pub fn intersect_lazy(
+    pub fn intersect_lazy<'w>(
         &self,
         i: usize,
         ray: &Ray,
-        w: impl FnOnce() -> WatertightRay,
+        w: impl FnOnce() -> &'w WatertightRay,
         t_min: f32,
         t_max: f32,
     ) -> Option<f32> {
@@ -274,7 +274,7 @@ impl QuadPool {
         let n = V3::splat(Vec3::new(nx, ny, nz));
         let v = V3::splat;
         let (t, hit) = plane_distance(n, d, v(ray.origin), v(ray.dir), t_min, t_max);
-        (hit && passes_through(&w(), &self.rows[i])).then_some(t)
+        (hit && passes_through(w(), &self.rows[i])).then_some(t)
     }
 }
 
@@ -306,10 +306,10 @@ impl OneQuad {
 
     /// `QuadPool::intersect_lazy` of this quad: the same steps on the same values.
     #[inline(always)]
-    pub fn intersect_lazy(
+    pub fn intersect_lazy<'w>(
         &self,
         ray: &Ray,
-        w: impl FnOnce() -> WatertightRay,
+        w: impl FnOnce() -> &'w WatertightRay,
         t_min: f32,
         t_max: f32,
     ) -> Option<f32> {
@@ -317,7 +317,7 @@ impl OneQuad {
         let n = V3::splat(Vec3::new(nx, ny, nz));
         let v = V3::splat;
         let (t, hit) = plane_distance(n, d, v(ray.origin), v(ray.dir), t_min, t_max);
-        (hit && self.passes_through(&w())).then_some(t)
+        (hit && self.passes_through(w())).then_some(t)
     }
 
     /// `passes_through` for this quad, out of line: the plane test above is inlined
@@ -388,11 +388,11 @@ impl QuadLanes {
     /// first, and the edge test (and `w`, the ray's watertight constants) only if some
     /// quad's plane is met in `[t_min, t_max]`.
     #[inline(always)]
-    pub fn intersect(
+    pub fn intersect<'w>(
         &self,
         pool: &QuadPool,
         ray: &Ray,
-        w: impl FnOnce() -> WatertightRay,
+        w: impl FnOnce() -> &'w WatertightRay,
         t_min: f32,
         t_max: f32,
     ) -> ([f32; 8], u32) {
@@ -419,7 +419,7 @@ impl QuadLanes {
         let mut inside = inside_quad(e).bits();
         let redo = outer_edge_is_zero(e).bits() & near;
         for k in set_lanes(redo) {
-            let through = passes_through(&w, &pool.rows[self.first + k]);
+            let through = passes_through(w, &pool.rows[self.first + k]);
             inside = (inside & !(1 << k)) | ((through as u32) << k);
         }
         (t.to_array(), inside & near)
