@@ -280,16 +280,14 @@ impl QuadPool {
 
 /// One quad of a pool with what one ray's test of it reads, copied out of the pool once
 /// (the quad kept beside the BVH when it is the only one: `spheres`' backdrop): no
-/// group loop and no index into the pool's columns per ray.
+/// group loop, and the pool's columns are read only for a hit's id and object.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct OneQuad {
     /// `QuadPool::plane` and `QuadPool::rows` of the quad.
     plane: [f32; 4],
     rows: [Vec4; 3],
-    /// Its pool index, id and object.
+    /// Its pool index.
     pub index: usize,
-    pub id: u32,
-    pub object: u32,
 }
 
 impl OneQuad {
@@ -299,8 +297,6 @@ impl OneQuad {
             plane: pool.plane[i],
             rows: pool.rows[i],
             index: i,
-            id: pool.id[i],
-            object: pool.object[i],
         }
     }
 
