@@ -324,32 +324,28 @@ impl<'a> Tracer<'a> {
         let spheres = hits.of_kind(PrimKind::Sphere) & lanes;
         let quads = hits.of_kind(PrimKind::Quad) & lanes;
         let triangles = hits.of_kind(PrimKind::Triangle) & lanes;
-        let index = hits.indices();
         let t = L::select(L::Mask::from_bits(lanes), hits.t, L::splat(0.0));
         let on_ray = origin + dir.scale(t);
         let zero = V3::splat(Vec3::ZERO);
         let (mut point, mut error, mut outward) = (zero, zero, zero);
         if spheres != 0 {
-            // Lanes of other kinds take the first sphere lane's sphere (replaced below).
-            let i = own_or_first(&index, spheres);
             let pool = &scene.spheres;
-            // Most packets hit one sphere (a ground, a mirror): then no gathers.
-            let (c, r) = if all_equal(&i, L::WIDTH) {
-                let j = i[0];
-                (V3::splat(pool.center(j)), L::splat(pool.radius(j)))
-            } else {
-                gather_spheres(pool, &i)
+            // Most packets hit one sphere (a ground, a mirror): then no gathers. Else
+            // lanes of other kinds take the first sphere lane's sphere (replaced below).
+            let (c, r) = match hits.same_index(spheres) {
+                Some(j) => (V3::splat(pool.center(j)), L::splat(pool.radius(j))),
+                None => gather_spheres(pool, &own_or_first(&hits.indices(), spheres)),
             };
             (point, error, outward) = sphere_point_lanes(c, r, on_ray);
         }
         if quads != 0 {
-            let i = own_or_first(&index, quads);
             let pool = &scene.quads;
-            let (q, u, v, w, n) = if all_equal(&i, L::WIDTH) {
-                let (q, s) = (pool.frame(i[0]), V3::splat);
-                (s(q.corner), s(q.u), s(q.v), s(q.w), s(q.normal))
-            } else {
-                gather_quads(pool, &i)
+            let (q, u, v, w, n) = match hits.same_index(quads) {
+                Some(j) => {
+                    let (q, s) = (pool.frame(j), V3::splat);
+                    (s(q.corner), s(q.u), s(q.v), s(q.w), s(q.normal))
+                }
+                None => gather_quads(pool, &own_or_first(&hits.indices(), quads)),
             };
             let (p, e) = planar_point_lanes(q, u, v, w, on_ray);
             let m = L::Mask::from_bits(quads);
@@ -359,7 +355,7 @@ impl<'a> Tracer<'a> {
         }
         if triangles != 0 {
             // Lanes of other kinds take the first triangle lane's triangle (replaced).
-            let i = own_or_first(&index, triangles);
+            let i = own_or_first(&hits.indices(), triangles);
             let pool = &scene.triangles;
             let vertex = |p: &[Vec<f32>; 3]| {
                 V3::new(

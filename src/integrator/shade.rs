@@ -31,7 +31,7 @@ use crate::accel::Context;
 use crate::geometry::spawn::{spawn_origin, spawn_origins};
 use crate::geometry::Ray;
 use crate::lanes::math::pow;
-use crate::lanes::{all_equal, Lane, Mask, V3};
+use crate::lanes::{Lane, Mask, V3};
 use crate::material::{Material, Phong};
 use crate::sampling::{slot, KeyLanes};
 use crate::scene::{Light, Scene};
@@ -168,41 +168,45 @@ impl<L: Lane> Paths<L> {
     }
 }
 
-/// Lane k is `table[object[k]]` where the lanes of `lanes` (not empty) read it; one
-/// splat when they all name the same entry.
+/// Lane k is `table[object + 1]` of its hit's object where the lanes of `lanes` (not
+/// empty, all with a hit) read it; one splat when they all hit the same object.
 #[inline(always)]
-fn gather<L: Lane>(table: &[f32], object: &[u32; MAX_WIDTH], lanes: u32) -> L {
-    let first = object[lanes.trailing_zeros() as usize];
-    let o: [u32; MAX_WIDTH] = std::array::from_fn(|k| {
-        if lanes >> k & 1 != 0 {
-            object[k]
-        } else {
-            first
+fn gather<L: Lane>(table: &[f32], hits: &PacketHits<L>, lanes: u32) -> L {
+    match hits.same_object(lanes) {
+        Some(o) => L::splat(table[o as usize + 1]),
+        None => {
+            let e = entries(hits, lanes);
+            L::from_fn(|k| table[e[k] as usize])
         }
-    });
-    if all_equal(&o, L::WIDTH) {
-        L::splat(table[first as usize])
-    } else {
-        L::from_fn(|k| table[o[k] as usize])
     }
 }
 
 /// `gather` of a table of colours.
 #[inline(always)]
-fn gather3<L: Lane>(table: &[Vec3], object: &[u32; MAX_WIDTH], lanes: u32) -> V3<L> {
+fn gather3<L: Lane>(table: &[Vec3], hits: &PacketHits<L>, lanes: u32) -> V3<L> {
+    match hits.same_object(lanes) {
+        Some(o) => V3::splat(table[o as usize + 1]),
+        None => {
+            let e = entries(hits, lanes);
+            V3::from_fn(|k| table[e[k] as usize])
+        }
+    }
+}
+
+/// The lanes' table entries (object + 1) where the lanes of `lanes` (not empty) read
+/// them, the first of those lanes' entry in the others.
+#[inline(always)]
+fn entries<L: Lane>(hits: &PacketHits<L>, lanes: u32) -> [u32; MAX_WIDTH] {
+    let object = hits.objects();
     let first = object[lanes.trailing_zeros() as usize];
-    let o: [u32; MAX_WIDTH] = std::array::from_fn(|k| {
+    std::array::from_fn(|k| {
         if lanes >> k & 1 != 0 {
             object[k]
         } else {
             first
         }
-    });
-    if all_equal(&o, L::WIDTH) {
-        V3::splat(table[first as usize])
-    } else {
-        V3::from_fn(|k| table[o[k] as usize])
-    }
+        .wrapping_add(1)
+    })
 }
 
 /// `acc + weight · c` in the lanes of `lanes`, `acc` elsewhere.
@@ -370,21 +374,17 @@ impl Tracer<'_> {
         let t = &self.tables;
         let active = paths.active;
         let found = hits.found & active;
-        let object = hits.objects();
         // The lanes by how their hit is shaded, and the Phong material when every Phong
         // lane has the same one. All hits on one object (one lane; most packets): its
         // class from the table, each class's mask by a compare with it (in registers; a
         // store at the class's index went through memory and every mask was read back
         // from there). Few objects: one lane compare per object. Else a table lookup
         // per lane.
-        let first = found.trailing_zeros() as usize;
-        let one_object = L::WIDTH == 1 || found == 0 || hits.of_object(object[first]) == found;
-        let (by_class, uniform_phong) = if one_object {
-            let slot = if found != 0 {
-                object[first] as usize + 1
-            } else {
-                0
-            };
+        let one_object = match found {
+            0 => Some(0),
+            _ => hits.same_object(found).map(|o| o as usize + 1),
+        };
+        let (by_class, uniform_phong) = if let Some(slot) = one_object {
             let class = t.class[slot] as usize;
             let missed = active & !found;
             let by_class = std::array::from_fn(|c| {
@@ -418,6 +418,7 @@ impl Tracer<'_> {
             }
             (by_class, phong)
         } else {
+            let object = hits.objects();
             let classes = std::array::from_fn(|k| {
                 if k >= L::WIDTH || active >> k & 1 == 0 {
                     NO_LANE
@@ -429,8 +430,6 @@ impl Tracer<'_> {
             });
             (lanes_by_class(classes), MIXED_PHONG)
         };
-        // Table entries are object + 1.
-        let entry: [u32; MAX_WIDTH] = std::array::from_fn(|k| object[k].wrapping_add(1));
         let (mut color, mut weight) = (paths.color, paths.weight);
 
         // Paths that end here without shading: the background, a light's colour, what
@@ -442,7 +441,7 @@ impl Tracer<'_> {
         let path_traced = by_class[DIFFUSE] | by_class[METAL] | by_class[DIELECTRIC];
         let seen = by_class[LIGHT] | (path_traced & paths.mirror);
         if seen != 0 {
-            color = add_weighted(color, weight, gather3(&t.seen, &entry, seen), seen);
+            color = add_weighted(color, weight, gather3(&t.seen, hits, seen), seen);
         }
         let bounce = path_traced & !paths.mirror;
         let phong_lanes = by_class[PHONG] | by_class[MIRROR];
@@ -465,14 +464,8 @@ impl Tracer<'_> {
             let materials = if uniform_phong < MIXED_PHONG {
                 PhongLanes::<L>::splat(&t.phong[uniform_phong as usize])
             } else {
-                let first = t.phong_of[entry[phong_lanes.trailing_zeros() as usize] as usize];
-                let index: [u32; MAX_WIDTH] = std::array::from_fn(|k| {
-                    if phong_lanes >> k & 1 != 0 {
-                        t.phong_of[entry[k] as usize]
-                    } else {
-                        first
-                    }
-                });
+                let entry = entries(hits, phong_lanes);
+                let index = entry.map(|e| t.phong_of[e as usize]);
                 PhongLanes::<L>::from_indices(&t.phong, &index)
             };
             let local = self.phong_lanes(&materials, &s, -dir, keys, vertex, phong_lanes, counts);
@@ -481,7 +474,7 @@ impl Tracer<'_> {
             if mirrors != 0 {
                 // PhongMirror: (1 − F) of the local colour now, F of what the mirror
                 // direction sees next.
-                let f = mirror_fresnel(dir, s.normal, gather(&t.index, &entry, mirrors));
+                let f = mirror_fresnel(dir, s.normal, gather(&t.index, hits, mirrors));
                 let one_minus_f = L::splat(1.0) - f;
                 color = add_weighted(color, weight, local.scale(one_minus_f), mirrors);
                 weight = V3::select(L::Mask::from_bits(mirrors), weight.scale(f), weight);
@@ -500,8 +493,8 @@ impl Tracer<'_> {
         if bounce != 0 {
             // Diffuse, Metal, Dielectric: a bounce, on as a camera sees it.
             let m = ScatterLanes {
-                albedo: gather3(&t.seen, &entry, bounce),
-                parameter: gather(&t.index, &entry, bounce),
+                albedo: gather3(&t.seen, hits, bounce),
+                parameter: gather(&t.index, hits, bounce),
                 diffuse: by_class[DIFFUSE] & bounce,
                 metal: by_class[METAL] & bounce,
                 dielectric: by_class[DIELECTRIC] & bounce,

@@ -182,6 +182,33 @@ impl<L: Lane> PacketHits<L> {
         self.object.eq(L::splat(f32::from_bits(object))).bits() & self.found
     }
 
+    /// The object that every lane of `lanes` (not empty) hits, when they all hit the
+    /// same one, by one lane compare (`of_object`).
+    #[inline(always)]
+    pub fn same_object(&self, lanes: u32) -> Option<u32> {
+        if L::WIDTH == 1 {
+            return Some(self.object.lane(0).to_bits());
+        }
+        let first = self.object.broadcast(lanes.trailing_zeros() as usize);
+        let o = first.lane(0).to_bits();
+        debug_assert!(o < 0x7f80_0000);
+        (self.object.eq(first).bits() & lanes == lanes).then_some(o)
+    }
+
+    /// The primitive that every lane of `lanes` (not empty) hits, when they all hit the
+    /// same one: its index, by one lane compare (an index's bits are a float's that
+    /// equals only itself, as an object's are in `of_object`).
+    #[inline(always)]
+    pub fn same_index(&self, lanes: u32) -> Option<usize> {
+        if L::WIDTH == 1 {
+            return Some(self.index.lane(0).to_bits() as usize);
+        }
+        let first = self.index.broadcast(lanes.trailing_zeros() as usize);
+        let i = first.lane(0).to_bits();
+        debug_assert!(i < 0x7f80_0000);
+        (self.index.eq(first).bits() & lanes == lanes).then_some(i as usize)
+    }
+
     /// The lanes whose hit is of `kind`.
     #[inline(always)]
     pub fn of_kind(&self, kind: PrimKind) -> u32 {
@@ -477,5 +504,49 @@ impl Bvh {
             }
             return;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec4;
+
+    /// `same_index` and `same_object` answer what a loop over the lanes answers, for
+    /// every lane mask and lanes on numbers whose bits are subnormal floats (1, 2), zero,
+    /// a normal float's and the largest allowed.
+    fn same_as_a_loop<L: Lane>() {
+        let numbers = [0u32, 1, 2, 0x3f80_0000, 0x7f7f_ffff];
+        let width = L::WIDTH as u32;
+        // Each lane's number: digits of `code` in base 5.
+        for code in 0..5u32.pow(width.min(5)) {
+            let of_lane = |k: u32| numbers[(code / 5u32.pow(k % 5) % 5) as usize];
+            let mut hits = PacketHits::<L>::none((1 << width) - 1);
+            for k in 0..width {
+                let n = of_lane(k);
+                let hit = Hit {
+                    t: 1.0,
+                    id: 0,
+                    kind: PrimKind::Quad,
+                    index: n,
+                    object: n ^ 1,
+                };
+                hits.set(k as usize, 1.0, Some(hit));
+            }
+            for lanes in 1..1u32 << width {
+                let first = of_lane(lanes.trailing_zeros());
+                let same = (0..width).all(|k| lanes >> k & 1 == 0 || of_lane(k) == first);
+                let index = same.then_some(first as usize);
+                assert_eq!(hits.same_index(lanes), index, "{code} {lanes:b}");
+                assert_eq!(hits.same_object(lanes), same.then_some(first ^ 1));
+            }
+        }
+    }
+
+    #[test]
+    fn same_index_and_object_are_a_loop_over_the_lanes() {
+        same_as_a_loop::<f32>();
+        same_as_a_loop::<Vec4>();
+        same_as_a_loop::<f32x8>();
     }
 }
