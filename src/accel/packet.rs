@@ -615,7 +615,8 @@ impl<L: Lane> TriangleLanes<'_, L> {
                 // `& 3`: the axes are 0..2; the mask drops the bounds checks.
                 let (kx, ky, kz) = (kx & 3, ky & 3, kz & 3);
                 let vertex = |m: usize| {
-                    let p = q[m];
+                    // Read in place (a copy of the vertex went through the stack).
+                    let p = &q[m];
                     let p = [L::splat(p[kx]), L::splat(p[ky]), L::splat(p[kz])];
                     shear(p, self.origin, self.sx, self.sy)
                 };
