@@ -557,9 +557,9 @@ fn gather_quads<L: Lane>(pool: &QuadPool, i: &[usize; MAX_WIDTH]) -> QuadVectors
 }
 
 /// `index[k]` for the lanes `k` of `lanes` (not empty), the first of those lanes' index
-/// for the others, so every lane reads a valid primitive.
+/// for the others, so every lane reads a valid primitive or table entry.
 #[inline(always)]
-fn own_or_first(index: &[usize; MAX_WIDTH], lanes: u32) -> [usize; MAX_WIDTH] {
+fn own_or_first<T: Copy>(index: &[T; MAX_WIDTH], lanes: u32) -> [T; MAX_WIDTH] {
     let first = index[lanes.trailing_zeros() as usize];
     std::array::from_fn(|k| if lanes >> k & 1 != 0 { index[k] } else { first })
 }

@@ -21,8 +21,8 @@
 
 use super::scatter::{scatter_lanes, ScatterLanes};
 use super::{
-    direction_to, mirror_direction, mirror_fresnel, pow_is_zero, specular_cosine, PhongLanes,
-    RayCounts, SurfaceLanes, Tracer, T_MIN,
+    direction_to, mirror_direction, mirror_fresnel, own_or_first, pow_is_zero, specular_cosine,
+    PhongLanes, RayCounts, SurfaceLanes, Tracer, T_MIN,
 };
 use crate::accel::cull::Cull;
 use crate::accel::packet::{PacketHits, RayPacket, MAX_WIDTH};
@@ -197,16 +197,7 @@ fn gather3<L: Lane>(table: &[Vec3], hits: &PacketHits<L>, lanes: u32) -> V3<L> {
 /// them, the first of those lanes' entry in the others.
 #[inline(always)]
 fn entries<L: Lane>(hits: &PacketHits<L>, lanes: u32) -> [u32; MAX_WIDTH] {
-    let object = hits.objects();
-    let first = object[lanes.trailing_zeros() as usize];
-    std::array::from_fn(|k| {
-        if lanes >> k & 1 != 0 {
-            object[k]
-        } else {
-            first
-        }
-        .wrapping_add(1)
-    })
+    own_or_first(&hits.objects(), lanes).map(|o| o.wrapping_add(1))
 }
 
 /// `acc + weight · c` in the lanes of `lanes`, `acc` elsewhere.
