@@ -27,6 +27,32 @@ pub fn subdivide_times(triangles: &[[Vec3; 3]], levels: u32) -> Vec<[Vec3; 3]> {
     t
 }
 
+/// The icosahedron's faces, wound outward, as indices into its twelve vertices
+/// (−1, φ, 0), (1, φ, 0), (−1, −φ, 0), (1, −φ, 0), (0, −1, φ), (0, 1, φ), (0, −1, −φ),
+/// (0, 1, −φ), (φ, 0, −1), (φ, 0, 1), (−φ, 0, −1), (−φ, 0, 1), φ the golden ratio.
+pub const ICOSAHEDRON_FACES: [[usize; 3]; 20] = [
+    [0, 11, 5],
+    [0, 5, 1],
+    [0, 1, 7],
+    [0, 7, 10],
+    [0, 10, 11],
+    [1, 5, 9],
+    [5, 11, 4],
+    [11, 10, 2],
+    [10, 7, 6],
+    [7, 1, 8],
+    [3, 9, 4],
+    [3, 4, 2],
+    [3, 2, 6],
+    [3, 6, 8],
+    [3, 8, 9],
+    [4, 9, 5],
+    [2, 4, 11],
+    [6, 2, 10],
+    [8, 6, 7],
+    [9, 8, 1],
+];
+
 /// A closed unit icosphere around `center` with radius `radius`: the icosahedron
 /// subdivided `levels` times, new vertices pushed onto the sphere (20 · 4^levels
 /// triangles, wound outward).
@@ -49,29 +75,10 @@ pub fn icosphere(levels: u32, center: Vec3, radius: f32) -> Vec<[Vec3; 3]> {
     .iter()
     .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
     .collect();
-    const FACES: [[usize; 3]; 20] = [
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    let mut tris: Vec<[Vec3; 3]> = FACES.iter().map(|f| [v[f[0]], v[f[1]], v[f[2]]]).collect();
+    let mut tris: Vec<[Vec3; 3]> = ICOSAHEDRON_FACES
+        .iter()
+        .map(|f| [v[f[0]], v[f[1]], v[f[2]]])
+        .collect();
     for _ in 0..levels {
         let mut next = Vec::with_capacity(tris.len() * 4);
         for &[a, b, c] in &tris {

@@ -1220,28 +1220,7 @@ impl Mesh {
             [-p, 0.0, -1.0],
             [-p, 0.0, 1.0],
         ];
-        let mut faces: Vec<[usize; 3]> = vec![
-            [0, 11, 5],
-            [0, 5, 1],
-            [0, 1, 7],
-            [0, 7, 10],
-            [0, 10, 11],
-            [1, 5, 9],
-            [5, 11, 4],
-            [11, 10, 2],
-            [10, 7, 6],
-            [7, 1, 8],
-            [3, 9, 4],
-            [3, 4, 2],
-            [3, 2, 6],
-            [3, 6, 8],
-            [3, 8, 9],
-            [4, 9, 5],
-            [2, 4, 11],
-            [6, 2, 10],
-            [8, 6, 7],
-            [9, 8, 1],
-        ];
+        let mut faces = raytracer::generate::ICOSAHEDRON_FACES.to_vec();
         for _ in 0..levels {
             let mut mid = std::collections::HashMap::new();
             let mut next = Vec::new();
