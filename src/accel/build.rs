@@ -58,6 +58,9 @@ pub const BINS: usize = 16;
 // `Grid::bins` masks bin indices with `BINS - 1`.
 const _: () = assert!(BINS.is_power_of_two());
 pub const MAX_LEAF: usize = 4;
+/// The largest pool of one kind the tree holds: a leaf's code has 27 bits for its first
+/// primitive (`bvh::node`). Larger pools stay beside the tree.
+pub const MAX_POOL_FOR_BVH: usize = 1 << 27;
 
 /// The SAH's intersection cost of `count` primitives: the blocks of `MAX_LEAF` they fill.
 /// A leaf's primitives are tested in one 4-lane pass (`intersect4`) whether it holds one

@@ -1,8 +1,7 @@
 //! The stack of every tree traversal: the nodes still to visit, with what each traversal
 //! keeps beside them (an entry distance, a packet's lanes).
 
-use super::build::{MAX_DEPTH, MAX_LEAF};
-use super::bvh::MAX_POOL_FOR_BVH;
+use super::build::{MAX_DEPTH, MAX_LEAF, MAX_POOL_FOR_BVH};
 use std::mem::MaybeUninit;
 
 /// The entries a traversal of `W`-wide nodes can hold at once: it pops a node and pushes

@@ -8,15 +8,13 @@
 //! contiguous in that kind's pool (the pools are reordered after the build), and both
 //! widths share them.
 
-use super::build::{self, BuildTree, NodeId, PrimRef};
+use super::build::{self, BuildTree, NodeId, PrimRef, MAX_POOL_FOR_BVH};
 use crate::geometry::quad::{OneQuad, QuadLanes};
 use crate::geometry::sphere::{sphere_distance, SpherePool, SphereRay};
 use crate::geometry::{Aabb, PrimKind};
 use crate::lanes::{Mask, V3};
 use crate::scene::Scene;
-pub use node::{
-    decode_leaf, encode_leaf, slab, BoxRay, Node, Node4, Node8, EMPTY, LEAF, MAX_POOL_FOR_BVH,
-};
+pub use node::{decode_leaf, encode_leaf, slab, BoxRay, Node, Node4, Node8, EMPTY, LEAF};
 pub(crate) use node::{plane_rows, FAR_SCALE, NEAR_SCALE};
 pub use node8::BoxRay8;
 pub use packet_closest::PacketHits;

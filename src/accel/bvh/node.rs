@@ -3,6 +3,7 @@
 //! the slab test with its margins, `BoxRay`, and the nearest-first order of the children
 //! a ray enters.
 
+use crate::accel::build::MAX_POOL_FOR_BVH;
 use crate::accel::stack::TraversalStack;
 use crate::geometry::spawn::gamma;
 use crate::geometry::{Aabb, PrimKind, Ray};
@@ -104,9 +105,7 @@ pub const LEAF: u32 = 1 << 31;
 
 pub const EMPTY: u32 = u32::MAX;
 
-const START_BITS: u32 = 27;
-
-pub const MAX_POOL_FOR_BVH: usize = 1 << START_BITS;
+const START_BITS: u32 = MAX_POOL_FOR_BVH.trailing_zeros();
 
 #[inline]
 pub fn encode_leaf(kind: PrimKind, start: u32, count: u32) -> u32 {
