@@ -1,6 +1,7 @@
 //! The command line, in the binary only (the library knows nothing of it): `args` (clap's
 //! flags) → `options` (validated, defaults filled in) → `render`, `merge` or `sweep` (the
-//! run), with the `report` (JSON) and `stats` printers apart.
+//! run), with the `report` (JSON) and `stats` printers apart; a render's record, which
+//! both print, is `run`.
 //!
 //! Messages on stderr (notes, warnings, statistics, the summary line, errors) are best
 //! effort: a closed or full stderr never fails a run whose files are written. What a
@@ -21,6 +22,7 @@ pub mod merge;
 pub mod options;
 pub mod render;
 pub mod report;
+pub mod run;
 pub mod stats;
 pub mod sweep;
 

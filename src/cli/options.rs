@@ -243,6 +243,10 @@ fn sweep(s: args::SweepArgs) -> SweepOptions {
     }
 }
 
+/// The default path of a reference: `target/reference/<scene>-w<width>-<spp>spp.exr`.
 fn default_reference(scene: &str, width: u32, spp: u32) -> PathBuf {
-    super::sweep::reference_path(std::path::Path::new("target/reference"), scene, width, spp)
+    let stem = Path::new(scene)
+        .file_stem()
+        .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
+    Path::new("target/reference").join(format!("{stem}-w{width}-{spp}spp.exr"))
 }

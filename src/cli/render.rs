@@ -3,36 +3,13 @@
 //! (all or nothing), then the statistics and the summary line.
 
 use super::options::RenderOptions;
+use super::run::{Run, Timings};
 use super::{report, stats};
 use anyhow::Context;
 use raytracer::output::OutputSet;
-use raytracer::{PacketWidth, Part, RayCounts, Region, Rendered, Renderer};
+use raytracer::{PacketWidth, Part, Region, Rendered, Renderer};
 use std::io::IsTerminal;
-use std::time::{Duration, Instant};
-
-/// What each phase of a run took.
-#[derive(Clone, Copy, Debug)]
-pub struct Timings {
-    /// Reading, parsing and compiling the scene (meshes included).
-    pub load: Duration,
-    /// Building the acceleration structure.
-    pub build: Duration,
-    pub render: Duration,
-    pub write: Duration,
-    /// When the run started (the total is up to when it is printed).
-    pub start: Instant,
-}
-
-/// What a run made, for the report and the printers.
-pub struct Run<'a> {
-    pub options: &'a RenderOptions,
-    pub renderer: &'a Renderer,
-    pub counts: RayCounts,
-    /// Pixels with a NaN or infinite channel.
-    pub non_finite: usize,
-    pub threads: usize,
-    pub timings: Timings,
-}
+use std::time::Instant;
 
 /// The pixels of a run: the frame, or a region of it for a part file.
 enum Pixels {

@@ -1,7 +1,7 @@
 //! `--report FILE`: sizes, timings and ray counts of a run as JSON, written with the
 //! image (`cli::render`).
 
-use super::render::Run;
+use super::run::Run;
 use raytracer::RayCounts;
 
 /// The `--report` JSON.

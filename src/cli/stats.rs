@@ -1,7 +1,7 @@
 //! `--stats`: what the acceleration structure holds, the rays and the traversal work, what
 //! the scene needs and what specialisation skipped, packet occupancy, non-finite pixels.
 
-use super::render::Run;
+use super::run::Run;
 
 /// Print the statistics of `run` on stderr, one `stats:` line each.
 pub fn print(run: &Run) {

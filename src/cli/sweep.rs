@@ -145,17 +145,6 @@ pub struct ReferenceInfo {
     pub seconds: f64,
 }
 
-/// The default path of a reference: `dir/<scene>-w<width>-<spp>spp.exr`.
-pub fn reference_path(dir: &Path, scene: &str, width: u32, spp: u32) -> PathBuf {
-    dir.join(format!("{}-w{width}-{spp}spp.exr", file_stem(scene)))
-}
-
-fn file_stem(scene: &str) -> String {
-    Path::new(scene)
-        .file_stem()
-        .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned())
-}
-
 fn info_path(exr: &Path) -> PathBuf {
     exr.with_extension("json")
 }
