@@ -1,9 +1,9 @@
-//! The film: what a render computes, linear RGB per pixel, and its ways out (8-bit bytes
-//! or an image file).
+//! The film: what a render computes, linear RGB per pixel. Its ways out, 8-bit bytes
+//! ([`Film::to_rgb8`]) and image files ([`Film::write`]), are defined in `output`, which
+//! owns the file formats and is written over the film.
 
 use crate::error::{Error, Result};
 use glam::Vec3;
-use std::path::Path;
 
 /// A rendered image: linear RGB (no gamma, no clamp), one [`Vec3`] per pixel, rows from
 /// the top. Each pixel is the mean of its samples, summed in sample order, so the film is
@@ -46,21 +46,6 @@ impl Film {
     /// Pixels with a NaN or infinite channel.
     pub fn non_finite_count(&self) -> usize {
         self.pixels.iter().filter(|p| !p.is_finite()).count()
-    }
-
-    /// 8-bit RGB bytes, row by row, as PNG and PPM files hold them: each channel clamped
-    /// to [0, 1] (NaN as 0), gamma 2 (its square root), then truncated, as the original
-    /// program wrote them.
-    pub fn to_rgb8(&self) -> Vec<u8> {
-        crate::output::to_bytes(self)
-    }
-
-    /// Write the film to `path`: `.png` or `.ppm` (8-bit, [`Film::to_rgb8`]) or `.exr`
-    /// (linear f32, bit for bit), chosen by the extension. The file is written to a
-    /// temporary file beside it and renamed into place, so a failure never leaves a
-    /// partial file or clobbers an existing one.
-    pub fn write(&self, path: impl AsRef<Path>) -> Result<()> {
-        crate::output::write_image(self, path.as_ref())
     }
 }
 

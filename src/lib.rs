@@ -52,7 +52,8 @@ pub use farm::region::{Rect, Region};
 pub use film::Film;
 pub use glam::Vec3;
 pub use integrator::RayCounts;
-pub use renderer::{Rendered, Renderer, SceneFile, SceneOptions};
+pub use render::Rendered;
+pub use renderer::{Renderer, SceneFile, SceneOptions};
 pub use sampling::SamplerKind;
 pub use settings::{PacketWidth, RenderSettings};
 

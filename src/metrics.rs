@@ -10,7 +10,7 @@
 //! - **PSNR**: 10·log10(1 / MSE) on values clamped to [0, 1] first (peak 1), in dB;
 //!   infinite for identical images.
 
-use crate::render::Film;
+use crate::film::Film;
 use glam::Vec3;
 
 /// The ε of relMSE's denominator b² + ε.

@@ -16,7 +16,7 @@
 //! writing of their files are one guarantee (never a half-written or stray file).
 
 use crate::error::{Error, Result};
-use crate::render::Film;
+use crate::film::Film;
 use std::io::{Seek, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -57,12 +57,24 @@ pub fn quantize(c: f32) -> u8 {
     (255.999 * c.sqrt()) as u8
 }
 
-/// 8-bit sRGB-ish bytes (gamma 2), row-major RGB.
-pub fn to_bytes(film: &Film) -> Vec<u8> {
-    film.pixels
-        .iter()
-        .flat_map(|p| [quantize(p.x), quantize(p.y), quantize(p.z)])
-        .collect()
+impl Film {
+    /// 8-bit RGB bytes, row by row, as PNG and PPM files hold them: each channel clamped
+    /// to [0, 1] (NaN as 0), gamma 2 (its square root), then truncated ([`quantize`]), as
+    /// the original program wrote them.
+    pub fn to_rgb8(&self) -> Vec<u8> {
+        self.pixels
+            .iter()
+            .flat_map(|p| [quantize(p.x), quantize(p.y), quantize(p.z)])
+            .collect()
+    }
+
+    /// Write the film to `path`: `.png` or `.ppm` (8-bit, [`Film::to_rgb8`]) or `.exr`
+    /// (linear f32, bit for bit), chosen by the extension. The file is written to a
+    /// temporary file beside it and renamed into place, so a failure never leaves a
+    /// partial file or clobbers an existing one.
+    pub fn write(&self, path: impl AsRef<Path>) -> Result<()> {
+        write_image(self, path.as_ref())
+    }
 }
 
 /// Write the film to `path` (format by extension), atomically.
@@ -738,11 +750,11 @@ mod tests {
         write_image(&film, &png).unwrap();
         let decoded = image::open(&png).unwrap().into_rgb8();
         assert_eq!(decoded.dimensions(), (width, height));
-        assert_eq!(decoded.into_raw(), to_bytes(&film));
+        assert_eq!(decoded.into_raw(), film.to_rgb8());
         let ppm = dir.path().join("f.ppm");
         write_image(&film, &ppm).unwrap();
         let mut want = b"P6\n5 3\n255\n".to_vec();
-        want.extend(to_bytes(&film));
+        want.extend(film.to_rgb8());
         assert_eq!(std::fs::read(&ppm).unwrap(), want);
     }
 

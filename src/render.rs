@@ -5,11 +5,10 @@
 
 use crate::accel::Accel;
 use crate::error::{Error, Result};
-use crate::farm::region::{Rect, Region};
+use crate::farm::region::{Rect, Region, TILE};
 pub use crate::film::Film;
 use crate::integrator::{footprint, RayCounts, Tracer};
 use crate::lanes::{Lane, V3};
-pub use crate::renderer::Rendered;
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 pub use crate::settings::{PacketWidth, RenderSettings};
@@ -17,9 +16,14 @@ use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 use wide::f32x8;
 
-/// Tile edge in pixels: the unit of parallel work, and of the parts a frame is split
-/// into (`Region::Part`). A multiple of the packet footprints (4x2 and 2x2).
-pub const TILE: u32 = 16;
+/// A film and the rays traced to make it.
+#[derive(Debug)]
+pub struct Rendered {
+    /// The image.
+    pub film: Film,
+    /// Rays by kind and the traversal work they took.
+    pub counts: RayCounts,
+}
 
 /// The pixels of a region of the frame: its rectangles' pixels one after another, each
 /// row by row (`Region::rects`).

@@ -6,10 +6,9 @@ use crate::accel::{Accel, AccelKind};
 use crate::budget::{Budget, MemoryEstimate};
 use crate::error::Result;
 use crate::farm::part::{self, Part, PixelSettings};
-use crate::farm::region::Region;
+use crate::farm::region::{Region, TILE};
 use crate::film::Film;
-use crate::integrator::RayCounts;
-use crate::render;
+use crate::render::{self, Rendered};
 use crate::scene::desc::SceneDesc;
 use crate::scene::{builtin, compile_within, Overrides, Scene, SceneSource};
 use crate::settings::RenderSettings;
@@ -100,15 +99,6 @@ pub struct Renderer {
     digest: OnceLock<String>,
 }
 
-/// A film and the rays traced to make it.
-#[derive(Debug)]
-pub struct Rendered {
-    /// The image.
-    pub film: Film,
-    /// Rays by kind and the traversal work they took.
-    pub counts: RayCounts,
-}
-
 impl Renderer {
     /// Compile `file` with `options` and build its acceleration structure, within the
     /// memory `options` allows: the image, the geometry and the trees are estimated
@@ -191,7 +181,7 @@ impl Renderer {
 
     /// Tiles a render calls `on_tile` for.
     pub fn tiles(&self) -> u32 {
-        self.width().div_ceil(render::TILE) * self.height().div_ceil(render::TILE)
+        self.width().div_ceil(TILE) * self.height().div_ceil(TILE)
     }
 
     /// Render only the pixels of `region`, to write as a part file and merge with the

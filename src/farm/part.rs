@@ -18,10 +18,10 @@
 //! of one format, kept together so they cannot drift apart.
 
 use crate::error::{Error, Result};
-use crate::farm::region::{Rect, Region};
+use crate::farm::region::{Rect, Region, TILE};
 use crate::integrator::RayCounts;
 use crate::output::OutputSet;
-use crate::render::{RenderedRegion, TILE};
+use crate::render::RenderedRegion;
 use crate::scene::{LightShape, Scene, MAX_PIXELS};
 use crate::settings::RenderSettings;
 use glam::Vec3;

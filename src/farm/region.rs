@@ -3,8 +3,11 @@
 //! rendered in, so regions rendered anywhere put together give the frame's bits.
 
 use crate::error::{Error, Result};
-use crate::render::TILE;
 use std::fmt;
+
+/// Tile edge in pixels: the unit of parallel work, and of the parts a frame is split
+/// into (`Region::Part`). A multiple of the packet footprints (4x2 and 2x2).
+pub const TILE: u32 = 16;
 
 /// A rectangle of pixels, `[x0, x1) × [y0, y1)`, in pixel coordinates from the top-left
 /// corner of the frame.
