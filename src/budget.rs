@@ -25,9 +25,9 @@
 //!
 //! where `tiny.toml` is a square camera (`aspect_ratio = 1.0`, `samples_per_pixel = 1`)
 //! and one sphere.
-
-use crate::error::{Error, Result};
-use crate::scene::{LightShape, Scene};
+//!
+//! The budget is written over byte counts alone: what a scene or a merge will need is
+//! counted where they are made (`Scene::memory_estimate`, `merge_parts_within`).
 
 /// Bytes a pixel while rendering: the film.
 pub const RENDER_BYTES_PER_PIXEL: u64 = 12;
@@ -88,25 +88,6 @@ impl MemoryEstimate {
         self.geometry = self
             .geometry
             .saturating_add(triangles.saturating_mul(LIGHT_TRIANGLE_BYTES));
-    }
-
-    /// A compiled scene rendered and written, with or without the BVH (`--accel linear`
-    /// builds none): what `Renderer::new` checks before the build.
-    pub fn of_scene(scene: &Scene, bvh: bool) -> Self {
-        let camera = &scene.camera;
-        let mut e = Self::image(camera.width as u64 * camera.height as u64);
-        e.add_primitives(
-            scene.spheres.len() as u64,
-            scene.quads.len() as u64,
-            scene.triangles.len() as u64,
-            bvh,
-        );
-        for light in &scene.lights {
-            if let LightShape::Triangles(t) = &light.shape {
-                e.add_light_triangles(t.len() as u64);
-            }
-        }
-        e
     }
 
     pub fn total(&self) -> u64 {
@@ -198,11 +179,12 @@ impl Budget {
         }
     }
 
-    /// `Err(OutOfMemory)` if `estimate` exceeds the budget; `what` says what was being
-    /// prepared ("a 65536x4096 image", "mesh bunny.obj subdivided 6 times").
-    pub fn check(&self, estimate: &MemoryEstimate, what: &str) -> Result<()> {
+    /// A [`Refusal`] if `estimate` exceeds the budget (the library's `Error::OutOfMemory`
+    /// through `?`); `what` says what was being prepared ("a 65536x4096 image", "mesh
+    /// bunny.obj subdivided 6 times").
+    pub fn check(&self, estimate: &MemoryEstimate, what: &str) -> Result<(), Refusal> {
         match *self {
-            Budget::Limited { bytes, by } if estimate.total() > bytes => Err(Error::OutOfMemory {
+            Budget::Limited { bytes, by } if estimate.total() > bytes => Err(Refusal {
                 what: what.to_string(),
                 estimate: *estimate,
                 limit: bytes,
@@ -211,6 +193,19 @@ impl Budget {
             _ => Ok(()),
         }
     }
+}
+
+/// An estimate the budget refused, with what it was for and the limit it exceeds.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Refusal {
+    /// What was being prepared.
+    pub what: String,
+    /// The bytes it would take, by part.
+    pub estimate: MemoryEstimate,
+    /// The bytes allowed.
+    pub limit: u64,
+    /// What sets the limit.
+    pub limited_by: Limit,
 }
 
 /// The soft `Max address space` of `/proc/self/limits` text, in bytes (`None`:
@@ -305,7 +300,7 @@ mod tests {
         let err = Budget::cap(2 << 30)
             .check(&e, "a 65536x4096 image")
             .unwrap_err();
-        let message = err.to_string();
+        let message = crate::Error::from(err).to_string();
         assert!(message.contains("a 65536x4096 image"), "{message}");
         assert!(message.contains("3.0 GiB"), "{message}");
         assert!(message.contains("the limit is 2.0 GiB"), "{message}");

@@ -1,7 +1,7 @@
 //! The library's error type. Every variant names what the user has to fix: the file and
 //! line of a scene or OBJ, the setting, or the output path.
 
-use crate::budget::{human, Limit, MemoryEstimate};
+use crate::budget::{human, Limit, MemoryEstimate, Refusal};
 use std::path::PathBuf;
 
 /// What went wrong, with the file, line and column where there is one. `{}` prints one
@@ -116,6 +116,17 @@ pub enum Error {
         /// cap the caller gave.
         limited_by: Limit,
     },
+}
+
+impl From<Refusal> for Error {
+    fn from(r: Refusal) -> Self {
+        Error::OutOfMemory {
+            what: r.what,
+            estimate: r.estimate,
+            limit: r.limit,
+            limited_by: r.limited_by,
+        }
+    }
 }
 
 /// `Result` with the library's [`Error`].

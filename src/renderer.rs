@@ -3,7 +3,7 @@
 //! [`Film`].
 
 use crate::accel::{Accel, AccelKind};
-use crate::budget::{Budget, MemoryEstimate};
+use crate::budget::Budget;
 use crate::error::Result;
 use crate::farm::part::{self, Part, PixelSettings};
 use crate::farm::region::{Region, TILE};
@@ -114,7 +114,7 @@ impl Renderer {
         let mut scene = compile_within(&file.source, &file.desc, overrides, budget)?;
         let bvh = options.accel == AccelKind::Bvh;
         budget.check(
-            &MemoryEstimate::of_scene(&scene, bvh),
+            &scene.memory_estimate(bvh),
             &format!(
                 "{}: a {}x{} image and {} primitives",
                 file.source.display,

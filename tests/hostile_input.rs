@@ -13,7 +13,7 @@ mod support;
 use glam::Vec3;
 use raytracer::accel::build::{build, BuildTree, NodeId, PrimRef};
 use raytracer::accel::{Accel, AccelKind};
-use raytracer::budget::{self, Budget, MemoryEstimate};
+use raytracer::budget::{self, Budget};
 use raytracer::geometry::{Aabb, PrimKind};
 use raytracer::render::render;
 use raytracer::scene::{builtin, Overrides, Scene};
@@ -577,7 +577,7 @@ fn an_image_over_the_budget_is_refused_with_its_estimate() {
         ..Overrides::default()
     };
     let scene = Scene::load_within(path.to_str().unwrap(), flags, cap).unwrap();
-    let estimate = MemoryEstimate::of_scene(&scene, true);
+    let estimate = scene.memory_estimate(true);
     assert_eq!(estimate.image, 8192 * 512 * budget::RENDER_BYTES_PER_PIXEL);
 }
 

@@ -14,7 +14,7 @@ pub mod limits;
 pub mod mesh;
 mod source;
 
-use crate::budget::Budget;
+use crate::budget::{Budget, MemoryEstimate};
 use crate::camera::Camera;
 use crate::error::Result;
 use crate::geometry::{Aabb, QuadPool, SpherePool, TrianglePool};
@@ -102,6 +102,25 @@ impl Scene {
 
     pub fn primitive_count(&self) -> usize {
         self.spheres.len() + self.quads.len() + self.triangles.len()
+    }
+
+    /// The memory of this scene rendered and written, with or without the BVH (`--accel
+    /// linear` builds none): what `Renderer::new` checks before the build.
+    pub fn memory_estimate(&self, bvh: bool) -> MemoryEstimate {
+        let camera = &self.camera;
+        let mut e = MemoryEstimate::image(camera.width as u64 * camera.height as u64);
+        e.add_primitives(
+            self.spheres.len() as u64,
+            self.quads.len() as u64,
+            self.triangles.len() as u64,
+            bvh,
+        );
+        for light in &self.lights {
+            if let LightShape::Triangles(t) = &light.shape {
+                e.add_light_triangles(t.len() as u64);
+            }
+        }
+        e
     }
 
     #[inline]
