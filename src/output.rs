@@ -98,6 +98,32 @@ fn encode<W: Write + std::io::Seek>(
     format: ImageFormat,
     out: &mut W,
 ) -> std::io::Result<()> {
+    match format {
+        ImageFormat::Exr => encode_exr(film, out),
+        rows => encode_rows(film, rows, out),
+    }
+}
+
+/// Encode the film in `format` to a stream (standard output, a pipe): PNG and PPM as
+/// they are made; EXR, whose writer goes back to fill in its table of offsets, whole in
+/// memory first (about 12 bytes a pixel more than a file takes).
+pub fn encode_to_stream(
+    film: &Film,
+    format: ImageFormat,
+    out: &mut impl Write,
+) -> std::io::Result<()> {
+    match format {
+        ImageFormat::Exr => {
+            let mut buffer = std::io::Cursor::new(Vec::new());
+            encode_exr(film, &mut buffer)?;
+            out.write_all(buffer.get_ref())
+        }
+        rows => encode_rows(film, rows, out),
+    }
+}
+
+/// PNG or PPM, quantised a row at a time.
+fn encode_rows<W: Write>(film: &Film, format: ImageFormat, out: &mut W) -> std::io::Result<()> {
     let (w, h) = (film.width, film.height);
     let rows = || {
         film.pixels.chunks_exact(w.max(1) as usize).map(|row| {
@@ -124,23 +150,26 @@ fn encode<W: Write + std::io::Seek>(
             stream.finish().map_err(std::io::Error::other)?;
             writer.finish().map_err(std::io::Error::other)
         }
-        ImageFormat::Exr => {
-            use exr::prelude::{Image, SpecificChannels, Vec2, WritableImage};
-            let width = w as usize;
-            let channels = SpecificChannels::rgb(|at: Vec2<usize>| {
-                let p = film.pixels[at.y() * width + at.x()];
-                (p.x, p.y, p.z)
-            });
-            Image::from_channels((width, h as usize), channels)
-                .write()
-                .non_parallel()
-                .to_buffered(out)
-                .map_err(|e| match e {
-                    exr::error::Error::Io(io) => io,
-                    other => std::io::Error::other(other),
-                })
-        }
+        ImageFormat::Exr => unreachable!("EXR is not written row by row"),
     }
+}
+
+/// OpenEXR, written by the `exr` crate a 64x64 tile at a time.
+fn encode_exr<W: Write + std::io::Seek>(film: &Film, out: &mut W) -> std::io::Result<()> {
+    use exr::prelude::{Image, SpecificChannels, Vec2, WritableImage};
+    let width = film.width as usize;
+    let channels = SpecificChannels::rgb(|at: Vec2<usize>| {
+        let p = film.pixels[at.y() * width + at.x()];
+        (p.x, p.y, p.z)
+    });
+    Image::from_channels((width, film.height as usize), channels)
+        .write()
+        .non_parallel()
+        .to_buffered(out)
+        .map_err(|e| match e {
+            exr::error::Error::Io(io) => io,
+            other => std::io::Error::other(other),
+        })
 }
 
 /// Read an OpenEXR image (any channel layout `image` can decode) into a film of linear
@@ -516,12 +545,16 @@ pub fn remove_stale_temporaries(dir: &Path) -> Vec<PathBuf> {
 /// The report must not replace the scene file or the image: `--report` naming either
 /// would overwrite it with JSON. Paths are compared as the files they name (an existing
 /// file by device and inode, so links are seen through; otherwise by absolute path).
-pub fn check_distinct_outputs(scene: Option<&Path>, image: &Path, report: &Path) -> Result<()> {
+pub fn check_distinct_outputs(
+    scene: Option<&Path>,
+    image: Option<&Path>,
+    report: &Path,
+) -> Result<()> {
     let refuse = |what: &str| Error::Output {
         path: report.to_path_buf(),
         message: format!("the report would overwrite {what}"),
     };
-    if same_file(report, image) {
+    if let Some(image) = image.filter(|image| same_file(report, image)) {
         return Err(refuse(&format!("the image {}", image.display())));
     }
     if let Some(scene) = scene {
@@ -692,18 +725,18 @@ mod tests {
         std::fs::write(&scene, b"x").unwrap();
         let image = dir.path().join("out.png");
         let report = dir.path().join("r.json");
-        assert!(check_distinct_outputs(Some(&scene), &image, &report).is_ok());
-        let e = check_distinct_outputs(Some(&scene), &image, &scene).unwrap_err();
+        assert!(check_distinct_outputs(Some(&scene), Some(&image), &report).is_ok());
+        let e = check_distinct_outputs(Some(&scene), Some(&image), &scene).unwrap_err();
         assert!(e.to_string().contains("the scene file"), "{e}");
         // The image does not exist yet: compared by absolute path.
         let again = dir.path().join(".").join("out.png");
-        let e = check_distinct_outputs(Some(&scene), &image, &again).unwrap_err();
+        let e = check_distinct_outputs(Some(&scene), Some(&image), &again).unwrap_err();
         assert!(e.to_string().contains("the image"), "{e}");
         #[cfg(unix)]
         {
             let link = dir.path().join("link.toml");
             std::os::unix::fs::symlink(&scene, &link).unwrap();
-            assert!(check_distinct_outputs(Some(&scene), &image, &link).is_err());
+            assert!(check_distinct_outputs(Some(&scene), Some(&image), &link).is_err());
         }
     }
 

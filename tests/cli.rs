@@ -93,6 +93,8 @@ struct Run {
     code: Option<i32>,
     stdout: String,
     stderr: String,
+    /// Standard output as bytes (an image written to `-o -`).
+    stdout_bytes: Vec<u8>,
 }
 
 /// Run the binary in `dir` with a time limit; stdout and stderr go to files elsewhere.
@@ -126,6 +128,7 @@ fn run_in(dir: &Path, args: &[String]) -> Run {
         code: status.code(),
         stdout: read(&out_path),
         stderr: read(&err_path),
+        stdout_bytes: std::fs::read(&out_path).unwrap_or_default(),
     }
 }
 
@@ -178,6 +181,12 @@ impl Case {
 
     fn file(mut self, name: &str, contents: impl AsRef<[u8]>) -> Self {
         self.files.push((name.into(), contents.as_ref().to_vec()));
+        self
+    }
+
+    /// The arguments with `extra` after them.
+    fn args(mut self, extra: &[&str]) -> Self {
+        self.args.extend(extra.iter().map(|a| a.to_string()));
         self
     }
 
@@ -861,6 +870,22 @@ fn report_naming_the_image_is_refused() {
 }
 
 #[test]
+fn image_and_report_cannot_both_go_to_standard_output() {
+    Case::new(&["spheres", "--width", "8", "-o", "-", "--report", "-"])
+        .fails_with(&["-o - and --report - would both write to standard output"]);
+}
+
+#[test]
+fn format_must_agree_with_the_output_file() {
+    Case::spheres(&["--format", "exr"]).fails_with(&["--format", "out.png", "extension"]);
+    Case::new(&[
+        "spheres", "--region", "0/2", "-o", "p.part", "--format", "png",
+    ])
+    .fails_with(&["--format", "part file"]);
+    Case::spheres(&["--format", "tiff"]).fails_in_clap("--format");
+}
+
+#[test]
 fn a_reference_that_is_not_an_image_is_a_read_error() {
     Case::new(&[
         "sweep",
@@ -991,6 +1016,75 @@ fn tiny_ppm_render() {
     assert_eq!((w, h), (8, 4));
     assert_eq!(bytes.len() - header_end, 3 * w * h);
     assert_eq!(file_names(dir.path()), ["out.ppm"]);
+}
+
+/// `-o -` writes to standard output the bytes `-o FILE` writes, in `--format` (PPM by
+/// default), and no file; the summary stays on stderr and names standard output.
+#[test]
+fn image_to_standard_output_is_the_file_bytes() {
+    for (format, file) in [
+        (None, "out.ppm"),
+        (Some("png"), "out.png"),
+        (Some("exr"), "out.exr"),
+    ] {
+        let base = ["spheres", "--width", "8", "--spp", "1"];
+        let (dir, to_file) = Case::new(&base).args(&["-o", file]).run();
+        assert_eq!(to_file.code, Some(0), "{}", to_file.stderr);
+        let expected = std::fs::read(dir.path().join(file)).unwrap();
+        let mut case = Case::new(&base).args(&["-o", "-"]);
+        if let Some(format) = format {
+            case = case.args(&["--format", format]);
+        }
+        let (dir, run) = case.run();
+        assert_eq!(run.code, Some(0), "{}", run.stderr);
+        assert!(
+            run.stdout_bytes == expected,
+            "{file}: standard output differs ({} bytes, the file {})",
+            run.stdout_bytes.len(),
+            expected.len()
+        );
+        assert!(run.stderr.contains("-> standard output"), "{}", run.stderr);
+        assert_eq!(file_names(dir.path()), Vec::<String>::new());
+    }
+}
+
+/// `--report -` prints the report on standard output and makes no file named `-`.
+#[test]
+fn report_to_standard_output_leaves_no_file() {
+    let (dir, run) = Case::spheres(&["--report", "-"]).run();
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    let report: serde_json::Value = serde_json::from_str(&run.stdout).unwrap();
+    assert_eq!(report["width"], 8);
+    assert_eq!(file_names(dir.path()), ["out.png"]);
+}
+
+/// `merge -o -` writes the merged frame to standard output, as `-o FILE` writes it.
+#[test]
+fn merged_frame_to_standard_output() {
+    let dir = TempDir::new().unwrap();
+    for i in 0..2 {
+        let args: Vec<String> = ["spheres", "--width", "8", "--spp", "1", "--region"]
+            .iter()
+            .map(|a| a.to_string())
+            .chain([format!("{i}/2"), "-o".into(), format!("p{i}.part")])
+            .collect();
+        let run = run_in(dir.path(), &args);
+        assert_eq!(run.code, Some(0), "{}", run.stderr);
+    }
+    let merge = |out: &[&str]| {
+        let args: Vec<String> = ["merge", "p0.part", "p1.part"]
+            .iter()
+            .chain(out)
+            .map(|a| a.to_string())
+            .collect();
+        run_in(dir.path(), &args)
+    };
+    let run = merge(&["-o", "frame.exr"]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    let run = merge(&["-o", "-", "--format", "exr"]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(run.stdout_bytes == std::fs::read(dir.path().join("frame.exr")).unwrap());
+    assert_eq!(file_names(dir.path()), ["frame.exr", "p0.part", "p1.part"]);
 }
 
 #[test]

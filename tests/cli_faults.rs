@@ -151,6 +151,54 @@ fn list_into_a_full_device_is_an_error() {
     assert_refused(&out, &["cannot write to standard output", "No space left"]);
 }
 
+/// `-o -` and `--report -` into a pipe whose reader has ended, or into a full device:
+/// the image (or report) goes nowhere, and the run ends as `--list` does, with no
+/// file left (the report's file not made when the image did not go out).
+#[test]
+fn standard_output_closed_or_full() {
+    let cases: [&[&str]; 3] = [
+        &["-o", "-", "--report", "r.json"],
+        &["-o", "-", "--format", "exr"],
+        &["-o", "out.png", "--report", "-"],
+    ];
+    for args in cases {
+        let image_to_stdout = args[1] == "-";
+        let dir = TempDir::new().unwrap();
+        let mut reader = Command::new("true").stdin(Stdio::piped()).spawn().unwrap();
+        let write_end = reader.stdin.take().unwrap();
+        reader.wait().unwrap();
+        let out = Command::new(BIN)
+            .args(["spheres", "--width", "64", "--spp", "1", "--quiet"])
+            .args(args)
+            .current_dir(dir.path())
+            .stdout(write_end)
+            .stderr(Stdio::piped())
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {}", stderr(&out));
+        assert_eq!(stderr(&out), "", "{args:?}");
+        // The image file is written before the report goes to standard output.
+        let expected: &[&str] = if image_to_stdout { &[] } else { &["out.png"] };
+        assert_eq!(names(dir.path()), expected, "{args:?}");
+
+        let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") else {
+            eprintln!("skipped: no /dev/full here");
+            continue;
+        };
+        let dir = TempDir::new().unwrap();
+        let out = Command::new(BIN)
+            .args(["spheres", "--width", "64", "--spp", "1", "--quiet"])
+            .args(args)
+            .current_dir(dir.path())
+            .stdout(full)
+            .stderr(Stdio::piped())
+            .output()
+            .unwrap();
+        assert_refused(&out, &["cannot write to standard output", "No space left"]);
+        assert_eq!(names(dir.path()), expected, "{args:?}");
+    }
+}
+
 #[test]
 fn a_full_stderr_does_not_fail_a_render() {
     let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") else {

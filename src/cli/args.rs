@@ -3,6 +3,7 @@
 
 use clap::{Parser, Subcommand, ValueEnum};
 use raytracer::accel::AccelKind;
+use raytracer::output::ImageFormat;
 use raytracer::sampling::SamplerKind;
 use raytracer::{PacketWidth, Rect, Region};
 use std::path::PathBuf;
@@ -34,9 +35,15 @@ pub struct Args {
     #[arg(required_unless_present = "list")]
     pub scene: Option<String>,
 
-    /// Output image: .png or .ppm (8-bit, gamma 2), .exr (linear f32) [default: <scene>.png]
+    /// Output image: .png or .ppm (8-bit, gamma 2), .exr (linear f32), or - for standard
+    /// output (in --format) [default: <scene>.png]
     #[arg(short, long)]
     pub output: Option<PathBuf>,
+
+    /// The image format of -o - (standard output) [default: ppm]; a file's format is its
+    /// extension.
+    #[arg(long, value_enum)]
+    pub format: Option<Format>,
 
     /// Samples per pixel (overrides the scene).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
@@ -92,7 +99,8 @@ pub struct Args {
     #[arg(short, long)]
     pub quiet: bool,
 
-    /// Write a JSON report of sizes, timings and ray counts to this file.
+    /// Write a JSON report of sizes, timings and ray counts to this file, or to standard
+    /// output for -.
     #[arg(long)]
     pub report: Option<PathBuf>,
 
@@ -162,9 +170,13 @@ pub struct MergeArgs {
     /// The part files.
     #[arg(required = true)]
     pub parts: Vec<PathBuf>,
-    /// Output image: .exr (linear f32, the bits of a one-process render), .png or .ppm.
+    /// Output image: .exr (linear f32, the bits of a one-process render), .png or .ppm,
+    /// or - for standard output (in --format).
     #[arg(short, long)]
     pub output: PathBuf,
+    /// The image format of -o - (standard output) [default: ppm].
+    #[arg(long, value_enum)]
+    pub format: Option<Format>,
     /// The memory the merge may use (as for rendering): a frame and part estimated to
     /// need more are refused before the memory is taken [default: the machine's
     /// available memory].
@@ -285,6 +297,27 @@ impl From<Sampler> for SamplerKind {
             Sampler::Independent => SamplerKind::Independent,
             Sampler::Stratified => SamplerKind::Stratified,
             Sampler::Sobol => SamplerKind::Sobol,
+        }
+    }
+}
+
+/// `--format`: an image format, for an image written to standard output.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Format {
+    /// Binary PPM (P6), 8-bit, gamma 2.
+    Ppm,
+    /// PNG, 8-bit, gamma 2.
+    Png,
+    /// OpenEXR, linear f32 RGB.
+    Exr,
+}
+
+impl From<Format> for ImageFormat {
+    fn from(f: Format) -> Self {
+        match f {
+            Format::Ppm => ImageFormat::Ppm,
+            Format::Png => ImageFormat::Png,
+            Format::Exr => ImageFormat::Exr,
         }
     }
 }

@@ -11,7 +11,11 @@ pub fn run(o: &MergeOptions) -> anyhow::Result<()> {
     let budget = o.max_memory.map_or_else(Budget::machine, Budget::cap);
     let merged =
         raytracer::merge_parts_within(&o.parts, budget).map_err(super::name_the_memory_cap)?;
-    merged.film.write(&o.output)?;
+    if super::options::is_stdout(&o.output) {
+        super::image_to_stdout(&merged.film, o.format)?;
+    } else {
+        merged.film.write(&o.output)?;
+    }
     if o.notes {
         to_stderr!(
             "merged {} parts of {} ({}x{}, {} spp) in {:.3} s -> {}",
@@ -21,7 +25,7 @@ pub fn run(o: &MergeOptions) -> anyhow::Result<()> {
             merged.film.height,
             merged.spp,
             start.elapsed().as_secs_f64(),
-            o.output.display()
+            super::output_name(&o.output)
         );
     }
     Ok(())

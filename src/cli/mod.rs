@@ -5,9 +5,9 @@
 //!
 //! Messages on stderr (notes, warnings, statistics, the summary line, errors) are best
 //! effort: a closed or full stderr never fails a run whose files are written. What a
-//! command prints on stdout (`--list`, a sweep's summary) is its product: a failure to
-//! write it is an error, but for a reader that went away (a broken pipe), which ends the
-//! run as a success, as `head` expects.
+//! command prints on stdout (`--list`, a sweep's summary, the image of `-o -`, the report
+//! of `--report -`) is its product: a failure to write it is an error, but for a reader
+//! that went away (a broken pipe), which ends the run as a success, as `head` expects.
 
 /// `eprintln!` that ignores a failure to write (see the module's documentation).
 macro_rules! to_stderr {
@@ -27,6 +27,7 @@ pub mod stats;
 pub mod sweep;
 
 use anyhow::Context;
+use raytracer::output::ImageFormat;
 use raytracer::SceneFile;
 use std::io::Write;
 use std::path::Path;
@@ -76,11 +77,33 @@ pub struct StdoutClosed;
 /// Write `text` to standard output: a broken pipe is `StdoutClosed`, any other failure
 /// (a full disk, `> /dev/full`) an error.
 pub fn print_stdout(text: &str) -> anyhow::Result<()> {
-    let mut out = std::io::stdout().lock();
-    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+    write_stdout(|out| out.write_all(text.as_bytes()))
+}
+
+/// Write an image to standard output (`-o -`), as `print_stdout` writes text.
+pub fn image_to_stdout(film: &raytracer::Film, format: ImageFormat) -> anyhow::Result<()> {
+    write_stdout(|out| raytracer::output::encode_to_stream(film, format, out))
+}
+
+/// Run `write` on standard output, buffered, and flush it: a broken pipe is
+/// `StdoutClosed`, any other failure an error.
+fn write_stdout(
+    write: impl FnOnce(&mut std::io::BufWriter<std::io::StdoutLock>) -> std::io::Result<()>,
+) -> anyhow::Result<()> {
+    let mut out = std::io::BufWriter::with_capacity(1 << 16, std::io::stdout().lock());
+    match write(&mut out).and_then(|()| out.flush()) {
         Ok(()) => Ok(()),
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(StdoutClosed.into()),
         Err(e) => Err(anyhow::Error::new(e).context("cannot write to standard output")),
+    }
+}
+
+/// How a message names an output: its path, or standard output for `-`.
+pub fn output_name(path: &Path) -> String {
+    if options::is_stdout(path) {
+        "standard output".into()
+    } else {
+        path.display().to_string()
     }
 }
 

@@ -6,6 +6,7 @@ use super::args::{self, Args};
 use super::scene_stem;
 use raytracer::output::{self, ImageFormat};
 use raytracer::{PacketWidth, Region, RenderSettings, SamplerKind, SceneOptions};
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 /// What the command line asks for.
@@ -29,7 +30,11 @@ pub struct RenderOptions {
     /// `Some`: render this region into a part file (`--region`, `--crop`, or the whole
     /// frame for `-o NAME.part`); `None`: render the frame into an image.
     pub region: Option<Region>,
+    /// The image or part file, or `-` for standard output (an image only).
     pub output: PathBuf,
+    /// The image's format (`None` for a part file).
+    pub format: Option<ImageFormat>,
+    /// The report's file, or `-` for standard output.
     pub report: Option<PathBuf>,
     pub stats: bool,
     /// Progress bar, notes and the summary line (off with `--quiet`).
@@ -69,9 +74,13 @@ impl Options {
     pub fn output_dirs(&self) -> Vec<PathBuf> {
         let mut dirs: Vec<PathBuf> = match self {
             Options::List => Vec::new(),
-            Options::Merge(o) => vec![output::directory_of(&o.output)],
+            Options::Merge(o) => std::iter::once(&o.output)
+                .filter(|p| !is_stdout(p))
+                .map(|p| output::directory_of(p))
+                .collect(),
             Options::Render(o) => std::iter::once(&o.output)
                 .chain(&o.report)
+                .filter(|p| !is_stdout(p))
                 .map(|p| output::directory_of(p))
                 .collect(),
             Options::Reference(o) => vec![output::directory_of(&o.output)],
@@ -86,7 +95,9 @@ impl Options {
 #[derive(Debug)]
 pub struct MergeOptions {
     pub parts: Vec<PathBuf>,
+    /// The frame's file, or `-` for standard output.
     pub output: PathBuf,
+    pub format: ImageFormat,
     /// `--max-memory` (`None`: the machine's free memory).
     pub max_memory: Option<u64>,
     /// The summary line (off with `--quiet`).
@@ -133,16 +144,30 @@ fn render(args: Args) -> anyhow::Result<RenderOptions> {
         None if is_part(&output) => Some(Region::Frame),
         r => r,
     };
-    if region.is_none() {
-        ImageFormat::for_path(&output)?;
+    let format = match region {
+        None => Some(image_format(&output, args.format)?),
+        Some(_) if args.format.is_some() => {
+            anyhow::bail!("--format sets an image's format: a part file has its own")
+        }
+        Some(_) => None,
+    };
+    let image_to_stdout = is_stdout(&output);
+    if !image_to_stdout {
+        output::check_writable(&output)?;
     }
-    output::check_writable(&output)?;
     if let Some(report) = &args.report {
-        output::check_writable(report)?;
-        // A scene argument that names a file (not a built-in scene).
-        let scene_path = Path::new(&scene);
-        let scene_file = scene_path.is_file().then_some(scene_path);
-        output::check_distinct_outputs(scene_file, &output, report)?;
+        if is_stdout(report) {
+            if image_to_stdout {
+                anyhow::bail!("-o - and --report - would both write to standard output");
+            }
+        } else {
+            output::check_writable(report)?;
+            // A scene argument that names a file (not a built-in scene).
+            let scene_path = Path::new(&scene);
+            let scene_file = scene_path.is_file().then_some(scene_path);
+            let image = (!image_to_stdout).then_some(output.as_path());
+            output::check_distinct_outputs(scene_file, image, report)?;
+        }
     }
     Ok(RenderOptions {
         scene,
@@ -161,10 +186,36 @@ fn render(args: Args) -> anyhow::Result<RenderOptions> {
         },
         region,
         output,
+        format,
         report: args.report,
         stats: args.stats,
         notes: !args.quiet,
     })
+}
+
+/// `-`, which names standard output.
+pub fn is_stdout(path: &Path) -> bool {
+    path.as_os_str() == "-"
+}
+
+/// The format of an image written to `output`: for standard output `--format`, PPM by
+/// default (as the original program wrote it); for a file its extension, which
+/// `--format`, if given, must agree with.
+fn image_format(output: &Path, given: Option<args::Format>) -> anyhow::Result<ImageFormat> {
+    if is_stdout(output) {
+        if std::io::stdout().is_terminal() {
+            anyhow::bail!("-o -: standard output is a terminal; redirect it to a file or a pipe");
+        }
+        return Ok(given.map_or(ImageFormat::Ppm, Into::into));
+    }
+    let format = ImageFormat::for_path(output)?;
+    if given.is_some_and(|g| ImageFormat::from(g) != format) {
+        anyhow::bail!(
+            "--format does not match -o {}: a file's format is its extension",
+            output.display()
+        );
+    }
+    Ok(format)
 }
 
 fn is_part(path: &Path) -> bool {
@@ -183,9 +234,10 @@ fn default_output(stem: &str, region: Option<Region>) -> PathBuf {
 }
 
 fn merge(m: args::MergeArgs) -> anyhow::Result<MergeOptions> {
-    ImageFormat::for_path(&m.output)?;
+    let format = image_format(&m.output, m.format)?;
     // The frame must not replace one of its parts.
-    if let Ok(out) = std::fs::canonicalize(&m.output) {
+    if is_stdout(&m.output) {
+    } else if let Ok(out) = std::fs::canonicalize(&m.output) {
         if let Some(part) = m
             .parts
             .iter()
@@ -198,10 +250,13 @@ fn merge(m: args::MergeArgs) -> anyhow::Result<MergeOptions> {
             );
         }
     }
-    output::check_writable(&m.output)?;
+    if !is_stdout(&m.output) {
+        output::check_writable(&m.output)?;
+    }
     Ok(MergeOptions {
         parts: m.parts,
         output: m.output,
+        format,
         max_memory: m.max_memory,
         notes: !m.quiet,
     })

@@ -2,7 +2,7 @@
 //! terminal), write the image (or the part file of a region) and the report together
 //! (all or nothing), then the statistics and the summary line.
 
-use super::options::RenderOptions;
+use super::options::{is_stdout, RenderOptions};
 use super::run::{Run, Timings};
 use super::{report, stats};
 use anyhow::Context;
@@ -60,10 +60,16 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
 
     // The image (or part) and the report are written to temporary files, then renamed
     // into place together: a failure leaves neither, and no earlier file is replaced.
+    // Standard output takes the image last, after every file is written and checked,
+    // and the report after the files are in place.
     let mut files = OutputSet::default();
+    let image_to_stdout = is_stdout(&o.output);
+    let report_to_stdout = o.report.as_deref().is_some_and(is_stdout);
     let (counts, non_finite) = match &pixels {
         Pixels::Frame(rendered) => {
-            files.add_image(&rendered.film, &o.output)?;
+            if !image_to_stdout {
+                files.add_image(&rendered.film, &o.output)?;
+            }
             (rendered.counts, rendered.film.non_finite_count())
         }
         Pixels::Part(part) => {
@@ -85,14 +91,20 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
             start,
         },
     };
-    if let Some(path) = &o.report {
-        let json = report::json(&run)?;
+    let json = o.report.as_ref().map(|_| report::json(&run)).transpose()?;
+    if let (Some(path), Some(json), false) = (&o.report, &json, report_to_stdout) {
         files.add(path, |out| {
             use std::io::Write;
             writeln!(out, "{json}")
         })?;
     }
+    if let (Pixels::Frame(rendered), true, Some(format)) = (&pixels, image_to_stdout, o.format) {
+        super::image_to_stdout(&rendered.film, format)?;
+    }
     files.commit()?;
+    if let (Some(json), true) = (&json, report_to_stdout) {
+        super::print_stdout(&format!("{json}\n"))?;
+    }
     run.timings.write = rendered_at.elapsed();
     if o.stats {
         stats::print(&run);
@@ -141,6 +153,6 @@ fn summary(run: &Run) {
         run.timings.start.elapsed().as_secs_f64(),
         counts.total() as f64 / 1e6,
         counts.total() as f64 / 1e6 / render_s.max(1e-9),
-        run.options.output.display()
+        super::output_name(&run.options.output)
     );
 }
