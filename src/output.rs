@@ -212,8 +212,20 @@ pub fn check_writable(path: &Path) -> Result<()> {
         message,
     };
     let dir = parent_dir(path);
-    if !dir.is_dir() {
-        return Err(fail(format!("directory {} does not exist", dir.display())));
+    match std::fs::metadata(dir) {
+        Ok(meta) if meta.is_dir() => {}
+        Ok(_) => return Err(fail(format!("{} is not a directory", dir.display()))),
+        Err(e) => {
+            // A file on the way (`afile/sub/out.png`) is named as what is wrong.
+            let file = dir.ancestors().skip(1).find(|a| a.is_file());
+            return Err(fail(match file {
+                Some(file) => format!("{} is not a directory", file.display()),
+                None if e.kind() == std::io::ErrorKind::NotFound => {
+                    format!("directory {} does not exist", dir.display())
+                }
+                None => format!("cannot use directory {}: {e}", dir.display()),
+            }));
+        }
     }
     if path.is_dir() {
         return Err(fail("is a directory".into()));
@@ -542,27 +554,55 @@ pub fn remove_stale_temporaries(dir: &Path) -> Vec<PathBuf> {
     removed
 }
 
-/// The report must not replace the scene file or the image: `--report` naming either
-/// would overwrite it with JSON. Paths are compared as the files they name (an existing
-/// file by device and inode, so links are seen through; otherwise by absolute path).
-pub fn check_distinct_outputs(
-    scene: Option<&Path>,
-    image: Option<&Path>,
-    report: &Path,
-) -> Result<()> {
-    let refuse = |what: &str| Error::Output {
-        path: report.to_path_buf(),
-        message: format!("the report would overwrite {what}"),
-    };
-    if let Some(image) = image.filter(|image| same_file(report, image)) {
-        return Err(refuse(&format!("the image {}", image.display())));
+/// The report must not replace the image: `--report` naming it would overwrite it with
+/// JSON. Paths are compared as the files they name (an existing file by device and inode,
+/// so links are seen through; otherwise by absolute path).
+pub fn check_distinct_outputs(image: &Path, report: &Path) -> Result<()> {
+    if same_file(report, image) {
+        return Err(Error::Output {
+            path: report.to_path_buf(),
+            message: format!("the report would overwrite the image {}", image.display()),
+        });
     }
-    if let Some(scene) = scene {
-        if same_file(report, scene) {
-            return Err(refuse(&format!("the scene file {}", scene.display())));
+    Ok(())
+}
+
+/// An output must not replace a file the run reads: `output`, written for `flag`, is
+/// refused if it is one of `inputs` (what each is, and its path), compared as files by
+/// device and inode, so another name for the file (a hard or symbolic link, `./x`) is
+/// seen through. An output that does not exist yet is no input.
+pub fn check_not_an_input(flag: &str, output: &Path, inputs: &[(&str, &Path)]) -> Result<()> {
+    let Ok(out) = std::fs::metadata(output) else {
+        return Ok(());
+    };
+    for (what, input) in inputs {
+        if std::fs::metadata(input).is_ok_and(|i| is_same(&out, &i, output, input)) {
+            return Err(Error::Output {
+                path: output.to_path_buf(),
+                message: format!(
+                    "{flag} names the {what} {}, which the run reads",
+                    input.display()
+                ),
+            });
         }
     }
     Ok(())
+}
+
+/// Two existing files' metadata are one file's: device and inode where there are such
+/// (Unix), else the same canonical path.
+fn is_same(a: &std::fs::Metadata, b: &std::fs::Metadata, pa: &Path, pb: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        let _ = (pa, pb);
+        use std::os::unix::fs::MetadataExt;
+        a.dev() == b.dev() && a.ino() == b.ino()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (a, b);
+        matches!((pa.canonicalize(), pb.canonicalize()), (Ok(x), Ok(y)) if x == y)
+    }
 }
 
 /// Do `a` and `b` name the same file (existing or not)?
@@ -719,24 +759,41 @@ mod tests {
     }
 
     #[test]
-    fn the_report_may_not_replace_the_scene_or_the_image() {
+    fn the_report_may_not_replace_the_image() {
+        let dir = tempfile::tempdir().unwrap();
+        let image = dir.path().join("out.png");
+        let report = dir.path().join("r.json");
+        assert!(check_distinct_outputs(&image, &report).is_ok());
+        // The image does not exist yet: compared by absolute path.
+        let again = dir.path().join(".").join("out.png");
+        let e = check_distinct_outputs(&image, &again).unwrap_err();
+        assert!(e.to_string().contains("the image"), "{e}");
+    }
+
+    #[test]
+    fn an_output_may_not_be_an_input_by_any_name() {
         let dir = tempfile::tempdir().unwrap();
         let scene = dir.path().join("s.toml");
         std::fs::write(&scene, b"x").unwrap();
-        let image = dir.path().join("out.png");
-        let report = dir.path().join("r.json");
-        assert!(check_distinct_outputs(Some(&scene), Some(&image), &report).is_ok());
-        let e = check_distinct_outputs(Some(&scene), Some(&image), &scene).unwrap_err();
-        assert!(e.to_string().contains("the scene file"), "{e}");
-        // The image does not exist yet: compared by absolute path.
-        let again = dir.path().join(".").join("out.png");
-        let e = check_distinct_outputs(Some(&scene), Some(&image), &again).unwrap_err();
-        assert!(e.to_string().contains("the image"), "{e}");
+        let inputs = [("scene file", scene.as_path())];
+        let new = dir.path().join("out.png");
+        assert!(check_not_an_input("-o", &new, &inputs).is_ok());
+        let e = check_not_an_input("-o", &scene, &inputs).unwrap_err();
+        assert!(e.to_string().contains("-o names the scene file"), "{e}");
+        let again = dir.path().join(".").join("s.toml");
+        assert!(check_not_an_input("-o", &again, &inputs).is_err());
+        // A different file with the same contents is not the input.
+        let copy = dir.path().join("copy.toml");
+        std::fs::write(&copy, b"x").unwrap();
+        assert!(check_not_an_input("-o", &copy, &inputs).is_ok());
         #[cfg(unix)]
         {
+            let hard = dir.path().join("hard.png");
+            std::fs::hard_link(&scene, &hard).unwrap();
+            assert!(check_not_an_input("-o", &hard, &inputs).is_err());
             let link = dir.path().join("link.toml");
             std::os::unix::fs::symlink(&scene, &link).unwrap();
-            assert!(check_distinct_outputs(Some(&scene), Some(&image), &link).is_err());
+            assert!(check_not_an_input("--report", &link, &inputs).is_err());
         }
     }
 

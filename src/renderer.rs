@@ -9,10 +9,10 @@ use crate::farm::part::{self, Part, PixelSettings};
 use crate::farm::region::{Region, TILE};
 use crate::film::Film;
 use crate::render::{self, Rendered};
-use crate::scene::desc::SceneDesc;
-use crate::scene::{builtin, compile_within, Overrides, Scene, SceneSource};
+use crate::scene::desc::{ObjectDesc, SceneDesc};
+use crate::scene::{builtin, compile_within, mesh, Overrides, Scene, SceneSource};
 use crate::settings::RenderSettings;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
@@ -61,6 +61,26 @@ impl SceneFile {
     /// The scene file's one-line `description`.
     pub fn description(&self) -> &str {
         &self.desc.description
+    }
+
+    /// The files a render of this scene reads besides the scene file, each with what it
+    /// is: its meshes' OBJ files (`"mesh"`), and the material libraries their `mtllib`
+    /// lines name (`"material library"`, never read, but part of the mesh). None for a
+    /// built-in scene, whose meshes are embedded. What no output of the run may replace.
+    pub fn input_files(&self) -> Vec<(&'static str, PathBuf)> {
+        let Some(dir) = &self.source.dir else {
+            return Vec::new();
+        };
+        let mut files = Vec::new();
+        for object in &self.desc.objects {
+            if let ObjectDesc::Mesh { path, .. } = object.get_ref() {
+                let obj = dir.join(path);
+                let libraries = mesh::material_libraries(&obj);
+                files.push(("mesh", obj));
+                files.extend(libraries.into_iter().map(|l| ("material library", l)));
+            }
+        }
+        files
     }
 }
 

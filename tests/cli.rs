@@ -859,7 +859,7 @@ fn report_is_a_directory() {
 fn report_naming_the_scene_file_is_refused() {
     Case::new(&["bad.toml", "--report", "bad.toml", "-o", "out.png"])
         .file("bad.toml", BASE)
-        .fails_with(&["bad.toml", "the report would overwrite the scene file"]);
+        .fails_with(&["bad.toml", "--report names the scene file bad.toml"]);
 }
 
 #[test]
@@ -883,6 +883,98 @@ fn format_must_agree_with_the_output_file() {
     ])
     .fails_with(&["--format", "part file"]);
     Case::spheres(&["--format", "tiff"]).fails_in_clap("--format");
+}
+
+/// A path through a regular file is refused naming that file, not as a missing
+/// directory.
+#[test]
+fn output_under_a_regular_file_names_it() {
+    Case::spheres(&[])
+        .args(&["--report", "afile/r.json"])
+        .file("afile", "x")
+        .fails_with(&["afile/r.json", "afile is not a directory"]);
+    Case::new(&["spheres", "--width", "8", "-o", "afile/sub/o.png"])
+        .file("afile", "x")
+        .fails_with(&["afile/sub/o.png", "afile is not a directory"]);
+}
+
+/// No output replaces a file the run reads: the scene file (whatever its name), a part
+/// file's `-o` included, and a mesh or its material library.
+#[test]
+fn outputs_naming_an_input_are_refused() {
+    Case::new(&["scene.png", "-o", "scene.png"])
+        .file("scene.png", BASE)
+        .fails_with(&["scene.png", "-o names the scene file scene.png"]);
+    Case::new(&["scene.part", "--region", "0/2", "-o", "./scene.part"])
+        .file("scene.part", BASE)
+        .fails_with(&["-o names the scene file scene.part"]);
+    let mesh = with_object("type = \"mesh\"\npath = \"tri.png\"\nmaterial = \"red\"\n");
+    Case::new(&["bad.toml", "-o", "tri.png"])
+        .file("bad.toml", &mesh)
+        .file("tri.png", GOOD_OBJ)
+        .fails_with(&["-o names the mesh tri.png"]);
+    let obj = format!("mtllib tri.mtl other.mtl\n{GOOD_OBJ}");
+    Case::new(&["bad.toml", "-o", "out.png", "--report", "other.mtl"])
+        .file("bad.toml", mesh_object())
+        .file("mesh.obj", &obj)
+        .file("other.mtl", "newmtl x\n")
+        .fails_with(&["--report names the material library other.mtl"]);
+}
+
+/// The same file under another name: a hard link to the scene file as `-o`, a symbolic
+/// link to it as `--report`, a hard link to a part as merge's `-o`. Each is refused and
+/// every file keeps its bytes.
+#[cfg(unix)]
+#[test]
+fn outputs_naming_an_input_by_a_link_are_refused() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("scene.toml"), BASE).unwrap();
+    std::fs::hard_link(d.join("scene.toml"), d.join("out.png")).unwrap();
+    std::os::unix::fs::symlink("scene.toml", d.join("link.json")).unwrap();
+    let args = |a: &[&str]| a.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    let before = snapshot(d);
+    let run = run_in(d, &args(&["scene.toml", "-o", "out.png"]));
+    assert_eq!(run.code, Some(2), "{}", run.stderr);
+    assert!(
+        run.stderr.contains("-o names the scene file scene.toml"),
+        "{}",
+        run.stderr
+    );
+    let run = run_in(
+        d,
+        &args(&["scene.toml", "-o", "x.png", "--report", "link.json"]),
+    );
+    assert_eq!(run.code, Some(2), "{}", run.stderr);
+    assert!(
+        run.stderr.contains("--report names the scene file"),
+        "{}",
+        run.stderr
+    );
+    assert!(snapshot(d) == before);
+
+    for i in 0..2 {
+        let region = format!("{i}/2");
+        let part = format!("p{i}.part");
+        let run = run_in(
+            d,
+            &args(&["spheres", "--width", "8", "--region", &region, "-o", &part]),
+        );
+        assert_eq!(run.code, Some(0), "{}", run.stderr);
+    }
+    std::fs::hard_link(d.join("p1.part"), d.join("frame.exr")).unwrap();
+    let before = snapshot(d);
+    let run = run_in(
+        d,
+        &args(&["merge", "p0.part", "p1.part", "-o", "frame.exr"]),
+    );
+    assert_eq!(run.code, Some(2), "{}", run.stderr);
+    assert!(
+        run.stderr.contains("-o names the part file p1.part"),
+        "{}",
+        run.stderr
+    );
+    assert!(snapshot(d) == before);
 }
 
 #[test]

@@ -817,7 +817,7 @@ fn merge_refuses_special_files_its_own_parts_and_too_little_memory() {
     );
     assert_eq!(run.code, Some(2), "{}", run.stderr);
     assert!(
-        run.stderr.contains("is the part file p2.exr"),
+        run.stderr.contains("-o names the part file p2.exr"),
         "{}",
         run.stderr
     );

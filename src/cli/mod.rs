@@ -121,13 +121,18 @@ pub fn list() -> anyhow::Result<()> {
 /// without `.toml`, `/` or `\` is a built-in name, unless no built-in scene has it and a
 /// file does.
 pub fn scene_file(arg: &str) -> raytracer::Result<SceneFile> {
+    match scene_path(arg) {
+        None => SceneFile::builtin(arg),
+        Some(path) => SceneFile::from_path(path),
+    }
+}
+
+/// The scene argument's file, or `None` for a built-in scene name (`scene_file`).
+pub fn scene_path(arg: &str) -> Option<&Path> {
     let looks_like_path = arg.ends_with(".toml") || arg.contains('/') || arg.contains('\\');
     let is_builtin = SceneFile::builtin_names().contains(&arg);
-    if !looks_like_path && (is_builtin || !Path::new(arg).is_file()) {
-        SceneFile::builtin(arg)
-    } else {
-        SceneFile::from_path(arg)
-    }
+    let builtin = !looks_like_path && (is_builtin || !Path::new(arg).is_file());
+    (!builtin).then_some(Path::new(arg))
 }
 
 /// The default output name: the scene name, or a scene file's stem.

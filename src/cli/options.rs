@@ -1,6 +1,6 @@
 //! Validated options: what the parsed flags mean, checked before any long work (the
-//! output's format, that every output file can be written, that the report replaces
-//! neither the scene file nor the image), with defaults filled in.
+//! output's format, that every output file can be written, that no output replaces a
+//! file the run reads or another output), with defaults filled in.
 
 use super::args::{self, Args};
 use super::scene_stem;
@@ -66,6 +66,24 @@ pub struct SweepOptions {
     pub out: PathBuf,
     pub reference: PathBuf,
     pub reference_spp: u32,
+}
+
+impl RenderOptions {
+    /// Refuse an output (`-o`, `--report`) that is one of the files the scene reads
+    /// (`SceneFile::input_files`: its meshes and their material libraries), before they
+    /// are loaded.
+    pub fn check_outputs_against(&self, inputs: &[(&'static str, PathBuf)]) -> anyhow::Result<()> {
+        let inputs: Vec<(&str, &Path)> = inputs
+            .iter()
+            .map(|(what, p)| (*what, p.as_path()))
+            .collect();
+        let outputs = std::iter::once(("-o", &self.output))
+            .chain(self.report.iter().map(|r| ("--report", r)));
+        for (flag, path) in outputs.filter(|(_, p)| !is_stdout(p)) {
+            output::check_not_an_input(flag, path, &inputs)?;
+        }
+        Ok(())
+    }
 }
 
 impl Options {
@@ -151,8 +169,14 @@ fn render(args: Args) -> anyhow::Result<RenderOptions> {
         }
         Some(_) => None,
     };
+    // No output may replace the scene file (its meshes are checked once it is read).
+    let inputs: Vec<(&str, &Path)> = super::scene_path(&scene)
+        .map(|path| ("scene file", path))
+        .into_iter()
+        .collect();
     let image_to_stdout = is_stdout(&output);
     if !image_to_stdout {
+        output::check_not_an_input("-o", &output, &inputs)?;
         output::check_writable(&output)?;
     }
     if let Some(report) = &args.report {
@@ -161,12 +185,11 @@ fn render(args: Args) -> anyhow::Result<RenderOptions> {
                 anyhow::bail!("-o - and --report - would both write to standard output");
             }
         } else {
+            output::check_not_an_input("--report", report, &inputs)?;
             output::check_writable(report)?;
-            // A scene argument that names a file (not a built-in scene).
-            let scene_path = Path::new(&scene);
-            let scene_file = scene_path.is_file().then_some(scene_path);
-            let image = (!image_to_stdout).then_some(output.as_path());
-            output::check_distinct_outputs(scene_file, image, report)?;
+            if !image_to_stdout {
+                output::check_distinct_outputs(&output, report)?;
+            }
         }
     }
     Ok(RenderOptions {
@@ -235,22 +258,11 @@ fn default_output(stem: &str, region: Option<Region>) -> PathBuf {
 
 fn merge(m: args::MergeArgs) -> anyhow::Result<MergeOptions> {
     let format = image_format(&m.output, m.format)?;
-    // The frame must not replace one of its parts.
-    if is_stdout(&m.output) {
-    } else if let Ok(out) = std::fs::canonicalize(&m.output) {
-        if let Some(part) = m
-            .parts
-            .iter()
-            .find(|p| std::fs::canonicalize(p).is_ok_and(|p| p == out))
-        {
-            anyhow::bail!(
-                "-o {} is the part file {}: the merged frame would replace it",
-                m.output.display(),
-                part.display()
-            );
-        }
-    }
     if !is_stdout(&m.output) {
+        // The frame must not replace one of its parts.
+        let parts: Vec<(&str, &Path)> =
+            m.parts.iter().map(|p| ("part file", p.as_path())).collect();
+        output::check_not_an_input("-o", &m.output, &parts)?;
         output::check_writable(&m.output)?;
     }
     Ok(MergeOptions {

@@ -24,6 +24,7 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
         to_stderr!("note: built without AVX2: 8-wide packets run as two 4-wide halves");
     }
     let file = super::scene_file(&o.scene)?;
+    o.check_outputs_against(&file.input_files())?;
     let renderer = Renderer::new(&file, &o.scene_options).map_err(super::name_the_memory_cap)?;
     let built = Instant::now();
     // The region's tiles; a crop outside the image is refused here, before the render.

@@ -9,12 +9,14 @@
 //! line it was reading (`LineCounter`). Lines end at LF or CR LF, or at a lone CR (old
 //! Mac OS files, which tobj would read as one line).
 
+use super::input;
 use super::limits::MAX_COORDINATE;
 use crate::error::{Error, Result};
 use crate::geometry::triangle::is_proper_triangle;
 use glam::Vec3;
 use std::borrow::Cow;
 use std::io::{BufRead, Read};
+use std::path::{Path, PathBuf};
 
 /// A loaded mesh: its proper triangles and how many degenerate ones (zero area) were
 /// dropped. Zero-area triangles can never be hit and must not reach the BVH.
@@ -22,6 +24,40 @@ use std::io::{BufRead, Read};
 pub struct MeshTriangles {
     pub triangles: Vec<[Vec3; 3]>,
     pub degenerate: usize,
+}
+
+/// The material libraries an OBJ file names (`mtllib` lines), relative to its directory:
+/// files that belong with the mesh, though the renderer never reads them. None if the
+/// file cannot be read as a mesh (loading it reports why).
+pub fn material_libraries(obj: &Path) -> Vec<PathBuf> {
+    let Ok(size) = input::check_file(obj, input::MAX_MESH_BYTES, "mesh") else {
+        return Vec::new();
+    };
+    let Ok(file) = std::fs::File::open(obj) else {
+        return Vec::new();
+    };
+    let dir = obj.parent().unwrap_or(Path::new(""));
+    let mut libraries = Vec::new();
+    // Lines are read up to a length, so a file of one long line takes no memory.
+    const LINE: u64 = 4096;
+    let mut reader = std::io::BufReader::new(file.take(size));
+    let mut line = Vec::new();
+    loop {
+        line.clear();
+        match (&mut reader).take(LINE).read_until(b'\n', &mut line) {
+            Ok(0) | Err(_) => return libraries,
+            Ok(_) if !line.ends_with(b"\n") && line.len() as u64 == LINE => {
+                let _ = reader.skip_until(b'\n');
+            }
+            Ok(_) => {
+                let text = String::from_utf8_lossy(&line);
+                let mut words = text.split_whitespace();
+                if words.next() == Some("mtllib") {
+                    libraries.extend(words.map(|name| dir.join(name)));
+                }
+            }
+        }
+    }
 }
 
 /// Parse OBJ text. `path` is only used in messages.
