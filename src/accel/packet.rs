@@ -28,6 +28,7 @@ use crate::geometry::triangle::{
 use crate::geometry::{Aabb, PrimKind, Ray};
 use crate::lanes::{set_lanes, Lane, Mask, V3};
 use crate::scene::Scene;
+use glam::Vec3;
 
 /// The widest packet.
 pub const MAX_WIDTH: usize = 8;
@@ -322,6 +323,62 @@ impl<L: Lane> RayPacket<L> {
             found |= win;
         }
         (best_t, best_id, found)
+    }
+
+    /// `Light::nearest_hit` of a light made of the triangles `triangles` (ids from
+    /// `first_id`), on the lanes of `lanes`: `quad_light_hits` for triangles, by the
+    /// watertight test over lanes (`tris`: the packet's watertight lanes; the scalar
+    /// test for the lanes whose edge function rounds to zero, or for every lane when the
+    /// packet has no watertight lanes). The same bits as `nearest_hit` lane by lane.
+    #[inline(always)]
+    pub(crate) fn triangle_light_hits(
+        &self,
+        triangles: &[[Vec3; 3]],
+        first_id: u32,
+        t_min: f32,
+        lanes: u32,
+        tris: &mut LazyTriangles<'_, L>,
+    ) -> (L, L, u32) {
+        let (mut best_t, mut best_id) = (L::splat(0.0), L::splat(0.0));
+        let mut found = 0u32;
+        let window = [L::splat(t_min), L::splat(f32::INFINITY)];
+        for (k, v) in triangles.iter().enumerate() {
+            let (mut t, mut bits, redo) = match tris.get(PrimKind::Triangle) {
+                Some(tri) => tri.triangle(&v.map(|p| p.to_array()), window, lanes),
+                None => (L::splat(0.0), 0, lanes),
+            };
+            if redo != 0 {
+                let (t_redo, hit) = self.redo_light_triangle(*v, t_min, redo);
+                t = L::select(L::Mask::from_bits(hit), t_redo, t);
+                bits |= hit;
+            }
+            // Ids grow with k, so a later triangle takes a lane only if it is nearer.
+            let win = bits & !(found & !t.lt(best_t).bits());
+            if win == 0 {
+                continue;
+            }
+            let m = L::Mask::from_bits(win);
+            best_t = L::select(m, t, best_t);
+            best_id = L::select(m, L::splat(f32::from_bits(first_id + k as u32)), best_id);
+            found |= win;
+        }
+        (best_t, best_id, found)
+    }
+
+    /// The lanes `redo` of `triangle_light_hits`, one at a time with the scalar test.
+    #[cold]
+    #[inline(never)]
+    fn redo_light_triangle(&self, v: [Vec3; 3], t_min: f32, redo: u32) -> (L, u32) {
+        let mut out = [0.0; MAX_WIDTH];
+        let mut bits = 0;
+        for j in set_lanes(redo) {
+            let w = WatertightRay::new(&self.ray(j));
+            if let Some(tj) = w.intersect(v, t_min, f32::INFINITY) {
+                out[j] = tj;
+                bits |= 1 << j;
+            }
+        }
+        (L::from_fn(|k| out[k]), bits)
     }
 
     /// The lanes `redo` of `quad_light_hits`, one at a time with the scalar test.
@@ -635,6 +692,39 @@ impl<L: Lane> TriangleLanes<'_, L> {
         let e = quad_edge_functions(v[0], v[1], v[2], v[3]);
         let exact_zero = outer_edge_is_zero(e).bits() & lanes;
         (inside_quad(e).bits() & lanes & !exact_zero, exact_zero)
+    }
+}
+
+impl<L: Lane> TriangleLanes<'_, L> {
+    /// The watertight test of the triangle with vertices `v` on the lanes of `lanes`, in
+    /// `[t_min, t_max]`: distances, the lanes that hit, and those whose edge function
+    /// rounds to zero, which the scalar test must redo (not in the second mask). The
+    /// operations of `test_prim`'s triangle test, the vertices read from `v`.
+    #[inline(always)]
+    fn triangle(&self, v: &[[f32; 3]; 3], [t_min, t_max]: [L; 2], lanes: u32) -> (L, u32, u32) {
+        let vertex = |p: &[f32; 3]| {
+            let p = match &self.order {
+                Order::Uniform([kx, ky, kz], _) => [
+                    L::splat(p[kx & 3]),
+                    L::splat(p[ky & 3]),
+                    L::splat(p[kz & 3]),
+                ],
+                Order::PerLane(m) => {
+                    let p = p.map(L::splat);
+                    [pick(p, m[0]), pick(p, m[1]), pick(p, m[2])]
+                }
+            };
+            shear(p, self.origin, self.sx, self.sy)
+        };
+        let (a, b, c) = (vertex(&v[0]), vertex(&v[1]), vertex(&v[2]));
+        let [u, w0, w1] = edge_functions(a, b, c);
+        let zero = L::splat(0.0);
+        let exact_zero = (u.eq(zero) | w0.eq(zero) | w1.eq(zero)).bits() & lanes;
+        if (inside_edges([u, w0, w1]).bits() | exact_zero) & lanes == 0 {
+            return (zero, 0, 0);
+        }
+        let (t, hit) = watertight_distance([u, w0, w1], a, b, c, self.sz, t_min, t_max);
+        (t, hit.bits() & lanes & !exact_zero, exact_zero)
     }
 }
 

@@ -44,6 +44,14 @@ pub const LINEAR_LIMIT: usize = 16;
 /// most `LINEAR_LIMIT` of them, and never all of the tree's primitives.
 pub const HUGE_FRACTION: f32 = 0.5;
 
+/// A light of more primitives than this answers a shadow ray by one closest-hit query
+/// through the tree: lit when the nearest hit belongs to the light's object. By the
+/// `(t, id)` rule that is the answer of the light's own nearest hit followed by an
+/// occluder search (the linear scan answers every light so), but its cost grows with the
+/// log of the light's primitives, not their number: a mesh light's own nearest hit, one
+/// primitive after another, tested all of its triangles on every shadow ray.
+pub const LIGHT_PRIMITIVES_SCANNED: usize = 8;
+
 #[derive(Clone, Debug)]
 pub struct Bvh {
     pub nodes: Vec<Node4>,

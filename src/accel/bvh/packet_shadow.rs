@@ -4,8 +4,8 @@
 
 use super::node::{decode_leaf, EMPTY, LEAF};
 use super::single::RayQuery;
-use super::Bvh;
-use crate::accel::packet::{ids, in_play, PacketQuery, RayPacket, MAX_WIDTH};
+use super::{Bvh, LIGHT_PRIMITIVES_SCANNED};
+use crate::accel::packet::{ids, in_play, PacketQuery, RayPacket};
 use crate::accel::shadow::Candidates;
 use crate::accel::stack::{TraversalStack, STACK4};
 use crate::accel::{Context, ShadowQuery};
@@ -189,6 +189,22 @@ impl Bvh {
         among: Option<Candidates<'_>>,
     ) -> u32 {
         let lanes = lanes & p.active;
+        if lanes == 0 {
+            return 0;
+        }
+        if light.primitives() > LIGHT_PRIMITIVES_SCANNED {
+            let mut cx = cx;
+            let mut visible = 0;
+            for k in set_lanes(lanes) {
+                if self
+                    .closest_hit(cx.reborrow(), &p.ray(k), t_min, f32::INFINITY)
+                    .is_some_and(|h| h.object == light.object)
+                {
+                    visible |= 1 << k;
+                }
+            }
+            return visible;
+        }
         let mut q = PacketQuery::new(cx, p);
         let (t_light, id_light, reach) = match &light.shape {
             LightShape::Point { center, radius } => {
@@ -199,22 +215,8 @@ impl Bvh {
             LightShape::Quads(qs) => {
                 p.quad_light_hits(qs, light.first_id, t_min, lanes, &mut q.tris)
             }
-            LightShape::Triangles(_) => {
-                let mut t_light = [0.0; MAX_WIDTH];
-                let mut id_light = [0.0; MAX_WIDTH];
-                let mut reach = 0;
-                for k in set_lanes(lanes) {
-                    if let Some((t, id)) = light.nearest_hit(&p.ray(k), t_min) {
-                        t_light[k] = t;
-                        id_light[k] = f32::from_bits(id);
-                        reach |= 1 << k;
-                    }
-                }
-                (
-                    L::from_fn(|k| t_light[k]),
-                    L::from_fn(|k| id_light[k]),
-                    reach,
-                )
+            LightShape::Triangles(ts) => {
+                p.triangle_light_hits(ts, light.first_id, t_min, lanes, &mut q.tris)
             }
         };
         if reach == 0 {

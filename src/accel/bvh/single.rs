@@ -9,7 +9,7 @@
 
 use super::node::{decode_leaf, BoxRay, Wide, LEAF};
 use super::node8::BoxRay8;
-use super::{Beside, Bvh, SPHERE_GROUP};
+use super::{Beside, Bvh, LIGHT_PRIMITIVES_SCANNED, SPHERE_GROUP};
 use crate::accel::packet::ids;
 use crate::accel::stack::{TraversalStack, STACK4, STACK8};
 use crate::accel::{Context, ShadowQuery, TraversalStats};
@@ -406,6 +406,11 @@ impl Bvh {
     /// need none: `mixed` and `spheres` shadow rays test no triangle or quad edges at
     /// all).
     pub fn light_visible(&self, cx: Context<'_>, ray: &Ray, t_min: f32, light: &Light) -> bool {
+        if light.primitives() > LIGHT_PRIMITIVES_SCANNED {
+            return self
+                .closest_hit(cx, ray, t_min, f32::INFINITY)
+                .is_some_and(|h| h.object == light.object);
+        }
         let (mut rq, q) = RayQuery::with_reciprocals(cx, ray);
         let own = match light.shape {
             LightShape::Point { center, radius } => {
