@@ -108,6 +108,9 @@ pub struct TraversalStats {
     pub packet_nodes: u64,
     /// Active lanes summed over the packets' node visits.
     pub packet_lanes: u64,
+    /// Lanes a packet handed to the single-ray traversal: a subtree entered by one lane
+    /// (`RayPacket::fallback`), a shadow ray to a light of many primitives.
+    pub single_lanes: u64,
 }
 
 /// What every query of an acceleration structure reads and writes besides its rays: the
@@ -144,6 +147,7 @@ impl TraversalStats {
         self.prims += o.prims;
         self.packet_nodes += o.packet_nodes;
         self.packet_lanes += o.packet_lanes;
+        self.single_lanes += o.single_lanes;
     }
 }
 

@@ -59,6 +59,12 @@ pub fn print(run: &Run) {
             pct(counts.secondary_packets.occupancy(w)),
             pct(nodes),
         );
+        let packet_rays = counts.total().max(1);
+        to_stderr!(
+            "stats: lanes that went single: {} ({:.1}% of the rays; subtrees entered by one lane, shadow rays to a light of many primitives)",
+            t.single_lanes,
+            t.single_lanes as f64 * 100.0 / packet_rays as f64,
+        );
     }
     to_stderr!("stats: non-finite pixels: {}", run.non_finite);
 }

@@ -403,6 +403,7 @@ impl Bvh {
                     let child = node.child[c];
                     debug_assert!(child != EMPTY);
                     if bits.count_ones() <= fallback {
+                        q.stats.single_lanes += bits.count_ones() as u64;
                         for k in set_lanes(bits) {
                             let ray = p.ray(k);
                             let (mut rq, bray) = RayQuery::with_box4(q.context(), &ray);
@@ -489,7 +490,28 @@ impl Bvh {
                 q.stats.packet_nodes += 1;
                 q.stats.packet_lanes += lanes.count_ones() as u64;
                 let node = &self.nodes8[code as usize];
-                let (entry, mask) = fr.test(node, t_min, t_far);
+                let (entry, mut mask) = fr.test(node, t_min, t_far);
+                // A leaf child is tested here, on the lanes whose own box test enters
+                // it: the frustum holds the space between the rays too, and where
+                // triangles are smaller than the packet's footprint most of the leaves
+                // it meets hold no lane's hit.
+                for c in set_lanes(mask) {
+                    let child = node.child(c);
+                    if child & LEAF == 0 {
+                        continue;
+                    }
+                    mask &= !(1 << c);
+                    let (lo, hi) = node.child_box(c);
+                    let t_max = in_play(lanes, st.t);
+                    let (_, leaf_lanes) = q.p.test_box(lo, hi, L::splat(t_min), t_max);
+                    if leaf_lanes != 0 {
+                        let (kind, start, count) = decode_leaf(child);
+                        q.stats.prims += (count * leaf_lanes.count_ones()) as u64;
+                        let range = start as usize..(start + count) as usize;
+                        kind.specialize(|k| st.leaf(q, k, range, t_min, leaf_lanes));
+                        t_far = far(st);
+                    }
+                }
                 if mask != 0 {
                     // As the scalar traversal orders them (the bounds are at least
                     // t_min, so positive).

@@ -194,6 +194,7 @@ impl Bvh {
         }
         if light.primitives() > LIGHT_PRIMITIVES_SCANNED {
             let mut cx = cx;
+            cx.stats.single_lanes += lanes.count_ones() as u64;
             let mut visible = 0;
             for k in set_lanes(lanes) {
                 if self
@@ -320,6 +321,7 @@ impl Bvh {
                         continue;
                     }
                     if bits.count_ones() <= fallback {
+                        q.stats.single_lanes += bits.count_ones() as u64;
                         for k in set_lanes(bits) {
                             let ray = p.ray(k);
                             let (mut rq, bray) = RayQuery::with_box4(q.context(), &ray);
