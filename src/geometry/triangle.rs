@@ -241,26 +241,26 @@ impl TrianglePool {
         let mask = hit.bitmask() & lanes & !exact_zero;
         let out = t.to_array();
         if exact_zero != 0 {
-            return self.redo_exact_zero(start, ray, t_min, t_max, out, mask, exact_zero);
+            return self.redo_exact_zero(start, ray, t_min, t_max, (out, mask), exact_zero);
         }
         (out, mask)
     }
 
-    /// The lanes of `intersect4` whose edge function rounded to zero, redone one at a time
-    /// with the scalar test (and its f64 fallback). Rare: kept out of line.
+    /// The lanes `redo` of `intersect4` (whose edge function rounded to zero) redone one
+    /// at a time with the scalar test (and its f64 fallback), into the other lanes' `hits`
+    /// (distances and mask, as `intersect4` returns them). Rare: kept out of line.
     #[cold]
     #[inline(never)]
-    #[allow(clippy::too_many_arguments)]
     fn redo_exact_zero(
         &self,
         start: usize,
         ray: &WatertightRay,
         t_min: f32,
         t_max: f32,
-        mut out: [f32; 4],
-        mut mask: u32,
+        hits: ([f32; 4], u32),
         mut redo: u32,
     ) -> ([f32; 4], u32) {
+        let (mut out, mut mask) = hits;
         while redo != 0 {
             let k = redo.trailing_zeros() as usize;
             redo &= redo - 1;
@@ -439,7 +439,6 @@ pub fn inside_edges<L: Lane>([u, v, w]: [L; 3]) -> L::Mask {
 
 /// Distance and hit mask from the edge functions: all of one sign (edges inclusive),
 /// a non-zero determinant and t in `[t_min, t_max]`.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub fn watertight_distance<L: Lane>(
     [u, v, w]: [L; 3],

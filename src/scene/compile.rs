@@ -409,11 +409,7 @@ pub fn compile_within(
         match *material {
             Material::Phong(p) | Material::PhongMirror { phong: p, .. } => bound.phong(
                 ambient.max_element() as f64,
-                p.albedo.max_element() as f64,
-                p.shininess as f64,
-                p.ka as f64,
-                p.kd as f64,
-                p.ks as f64,
+                &p,
                 *at,
                 &format!(
                     "Phong shading of material '{name}' (the lights' radiance times their samples sums to {:.3e})",

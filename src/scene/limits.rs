@@ -6,6 +6,7 @@
 //! are documented in `scenes/README.md` ("Ranges").
 
 use super::desc::V3;
+use crate::material::Phong;
 use glam::Vec3;
 
 /// Every point of the scene's geometry (sphere centre ± radius, quad, triangle, box and
@@ -185,20 +186,13 @@ impl SampleBound {
         self.light_sum += radiance * samples as f64 * (1.0 + UNIT_DOT_SLACK);
     }
 
-    /// A Phong material's largest value: the sum inside the albedo, and the albedo
-    /// applied (whichever is larger, since both are computed).
-    #[allow(clippy::too_many_arguments)]
-    pub fn phong(
-        &mut self,
-        ambient: f64,
-        albedo: f64,
-        shininess: f64,
-        ka: f64,
-        kd: f64,
-        ks: f64,
-        offset: usize,
-        what: &str,
-    ) {
+    /// A Phong material's largest value under the scene's largest `ambient` channel: the
+    /// sum inside the albedo, and the albedo applied (whichever is larger, since both are
+    /// computed).
+    pub fn phong(&mut self, ambient: f64, phong: &Phong, offset: usize, what: &str) {
+        let albedo = phong.albedo.max_element() as f64;
+        let shininess = phong.shininess as f64;
+        let (ka, kd, ks) = (phong.ka as f64, phong.kd as f64, phong.ks as f64);
         let specular = (1.0 + UNIT_DOT_SLACK).powf(shininess);
         let sum = ka * ambient + kd * self.light_sum + ks * specular * self.light_sum;
         self.end(sum * albedo.max(1.0), offset, what);
@@ -305,11 +299,18 @@ mod tests {
         // Phong: ka·ambient + (kd + ks)·Σ radiance·samples, with the specular slack.
         let mut b = SampleBound::default();
         b.light(1e30, 10);
-        b.phong(0.0, 0.5, 0.0, 0.5, 0.5, 0.5, 3, "material 'm'");
+        let phong = |shininess| Phong {
+            albedo: Vec3::new(0.5, 0.25, 0.0),
+            shininess,
+            ka: 0.5,
+            kd: 0.5,
+            ks: 0.5,
+        };
+        b.phong(0.0, &phong(0.0), 3, "material 'm'");
         let want = (0.5 + 0.5) * 1e31 * (1.0 + UNIT_DOT_SLACK);
         assert!((b.ends[0].value - want).abs() <= 1e-12 * want);
         // A huge shininess makes (1 + 1e-6)^n overflow: refused.
-        b.phong(0.0, 0.5, 1e9, 0.5, 0.5, 0.5, 4, "material 'shiny'");
+        b.phong(0.0, &phong(1e9), 4, "material 'shiny'");
         assert_eq!(b.check(1, 1).unwrap_err().0, 4);
         // An albedo above 1 over many bounces: 2^200 · 1 overflows; named at the albedo.
         let mut b = SampleBound::default();

@@ -180,7 +180,6 @@ pub(crate) const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(8);
 /// packet traversal on a packet of rays and one box. `near` and `far` are the planes the
 /// ray's direction signs pick; `inv_near` and `inv_far` the reciprocal direction with
 /// the margins. `Lane::max`/`min` drop a NaN in their first operand.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub fn slab<L: Lane>(
     near: [L; 3],
