@@ -43,6 +43,7 @@ mod renderer;
 mod settings;
 
 pub use accel::AccelKind;
+pub use adaptive::{Adaptive, Outcome, PassProgress, Stop};
 #[doc(hidden)]
 pub use error::one_line;
 pub use error::{Error, Result};
@@ -72,6 +73,7 @@ pub mod sampling;
 // Scene → acceleration structure → integrator → tiles → film and output files.
 #[doc(hidden)]
 pub mod accel;
+mod adaptive;
 #[doc(hidden)]
 pub mod camera;
 #[doc(hidden)]

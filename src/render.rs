@@ -4,6 +4,7 @@
 //! sample order, so the image is the same for any thread count, tile order or region.
 
 use crate::accel::Accel;
+use crate::adaptive::{self, Adaptive, Outcome, PassProgress, Stop, TileSums, FIRST_PASS_SPP};
 use crate::error::{Error, Result};
 use crate::farm::region::{Rect, Region, TILE};
 pub use crate::film::Film;
@@ -14,6 +15,7 @@ use crate::scene::Scene;
 pub use crate::settings::{PacketWidth, RenderSettings};
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
+use std::ops::ControlFlow;
 use wide::f32x8;
 
 /// A film and the rays traced to make it.
@@ -23,6 +25,9 @@ pub struct Rendered {
     pub film: Film,
     /// Rays by kind and the traversal work they took.
     pub counts: RayCounts,
+    /// What an adaptive render did: passes, the estimated error, the samples each pixel
+    /// took (`None` for a render of `spp` samples a pixel).
+    pub adaptive: Option<Outcome>,
 }
 
 /// The pixels of a region of the frame: its rectangles' pixels one after another, each
@@ -37,6 +42,8 @@ pub struct RenderedRegion {
     pub pixels: Vec<Vec3>,
     /// Rays by kind and the traversal work they took.
     pub counts: RayCounts,
+    /// What an adaptive render did (`None` for a render of `spp` samples a pixel).
+    pub adaptive: Option<Outcome>,
 }
 
 /// The number of work tiles (and `on_tile` calls) of a render of `rects`.
@@ -59,7 +66,40 @@ pub fn render(
     let mut film = Film::new(width, height)?;
     let rects = [Rect::new(0, 0, width, height)];
     let counts = render_rects(scene, accel, settings, &rects, &mut film.pixels, on_tile);
-    Ok(Rendered { film, counts })
+    Ok(Rendered {
+        film,
+        counts,
+        adaptive: None,
+    })
+}
+
+/// Render the whole frame adaptively (`adaptive`) on the current rayon pool: `on_tile`
+/// after each tile of each pass, `on_pass` after each pass (which may end the render).
+pub fn render_adaptive(
+    scene: &Scene,
+    accel: &Accel,
+    settings: &RenderSettings,
+    adaptive: &Adaptive,
+    on_tile: &(dyn Fn() + Sync),
+    on_pass: &mut dyn FnMut(&PassProgress) -> ControlFlow<()>,
+) -> Result<Rendered> {
+    let (width, height) = (scene.camera.width, scene.camera.height);
+    let mut film = Film::new(width, height)?;
+    let rects = [Rect::new(0, 0, width, height)];
+    let (counts, outcome) = render_rects_adaptive(
+        scene,
+        accel,
+        settings,
+        &rects,
+        &mut film.pixels,
+        on_tile,
+        (adaptive, on_pass),
+    );
+    Ok(Rendered {
+        film,
+        counts,
+        adaptive: Some(outcome),
+    })
 }
 
 /// Render a region of the frame on the current rayon pool: only its pixels are
@@ -71,6 +111,18 @@ pub fn render_region(
     region: Region,
     on_tile: &(dyn Fn() + Sync),
 ) -> Result<RenderedRegion> {
+    render_region_sampled(scene, accel, settings, region, Sampling::Uniform, on_tile)
+}
+
+/// [`render_region`], uniform or adaptive (`mode`).
+pub fn render_region_sampled(
+    scene: &Scene,
+    accel: &Accel,
+    settings: &RenderSettings,
+    region: Region,
+    mode: Sampling,
+    on_tile: &(dyn Fn() + Sync),
+) -> Result<RenderedRegion> {
     let (width, height) = (scene.camera.width, scene.camera.height);
     let rects = region.rects(width, height)?;
     let n: u64 = rects.iter().map(Rect::pixel_count).sum();
@@ -79,13 +131,43 @@ pub fn render_region(
         height,
         bytes: n as u128 * std::mem::size_of::<Vec3>() as u128,
     })?;
-    let counts = render_rects(scene, accel, settings, &rects, &mut pixels, on_tile);
+    let (counts, adaptive) = match mode {
+        Sampling::Uniform => (
+            render_rects(scene, accel, settings, &rects, &mut pixels, on_tile),
+            None,
+        ),
+        Sampling::Adaptive(adaptive, on_pass) => {
+            let (counts, outcome) = render_rects_adaptive(
+                scene,
+                accel,
+                settings,
+                &rects,
+                &mut pixels,
+                on_tile,
+                (adaptive, on_pass),
+            );
+            (counts, Some(outcome))
+        }
+    };
     Ok(RenderedRegion {
         region,
         rects,
         pixels,
         counts,
+        adaptive,
     })
+}
+
+/// How a region is sampled: `spp` samples every pixel, or adaptively (with the callback
+/// after each pass).
+pub enum Sampling<'a> {
+    /// The scene's `spp` samples a pixel.
+    Uniform,
+    /// [`Adaptive`] passes.
+    Adaptive(
+        &'a Adaptive,
+        &'a mut dyn FnMut(&PassProgress) -> ControlFlow<()>,
+    ),
 }
 
 /// Render `rects` into `out`, which holds their pixels one rectangle after another, each
@@ -145,42 +227,213 @@ fn render_rects(
         .reduce(RayCounts::default, sum_counts)
 }
 
+/// Render `rects` (their pixels one rectangle after another into `out`, as
+/// `render::render_rects`) adaptively. Each tile of the frame's lattice that meets a
+/// rectangle is rendered whole, so a crop's pixels are those of the frame. `on_tile` is
+/// called after each tile of each pass, `on_pass` after each pass; it may end the
+/// render (then the outcome's stop is `Stop::Passes`).
+/// What an adaptive render calls after each pass: `Break` ends the render there.
+pub type OnPass<'a> = dyn FnMut(&PassProgress) -> ControlFlow<()> + 'a;
+
+fn render_rects_adaptive(
+    scene: &Scene,
+    accel: &Accel,
+    settings: &RenderSettings,
+    rects: &[Rect],
+    out: &mut [Vec3],
+    on_tile: &(dyn Fn() + Sync),
+    (adaptive, on_pass): (&Adaptive, &mut OnPass),
+) -> (RayCounts, Outcome) {
+    // The stratified sampler spreads a pixel's draws over its sample count: the budget.
+    let sampler = Sampler::new(settings.sampler, settings.seed, adaptive.max_spp);
+    let mut tracer = Tracer::with_sampler(scene, accel, sampler);
+    tracer.specialize = settings.specialize;
+    let tracer = &tracer;
+    let (width, height) = (scene.camera.width, scene.camera.height);
+
+    // The lattice's tiles that meet the rectangles, each once, with its pixels' places.
+    let mut index = std::collections::BTreeMap::new();
+    let mut pieces = Vec::new(); // (state, rectangle, offset of the rectangle in `out`)
+    let mut offset = 0usize;
+    for rect in rects {
+        for ty in rect.y0 / TILE..rect.y1.div_ceil(TILE) {
+            for tx in rect.x0 / TILE..rect.x1.div_ceil(TILE) {
+                let next = index.len();
+                let i = *index.entry((ty, tx)).or_insert(next);
+                pieces.push((i, *rect, offset));
+            }
+        }
+        offset += rect.pixel_count() as usize;
+    }
+    let mut tiles: Vec<TileSums> = Vec::with_capacity(index.len());
+    let mut order: Vec<_> = index.iter().map(|(&k, &i)| (i, k)).collect();
+    order.sort_unstable();
+    for (_, (ty, tx)) in order {
+        let (x0, y0) = (tx * TILE, ty * TILE);
+        tiles.push(TileSums::new(
+            Rect::new(x0, y0, (x0 + TILE).min(width), (y0 + TILE).min(height)),
+            0,
+        ));
+    }
+    for &(i, rect, _) in &pieces {
+        tiles[i].weight += adaptive::intersect(tiles[i].tile, rect).pixel_count();
+    }
+
+    let kind = settings.sampler;
+    let max = adaptive.max_spp;
+    let target = adaptive.target_rel_mse();
+    // Pass 0: every tile to FIRST_PASS_SPP, with estimates at 2 and 4 samples.
+    let extend = |t: &mut TileSums, n: u32| {
+        t.start_step();
+        let counts = accumulate_tile(tracer, settings.packet_width, t.tile, t.n..n, &mut t.sums);
+        t.end_step(n, &counts, kind);
+    };
+    tiles.par_iter_mut().for_each(|t| {
+        for n in [1, 2, FIRST_PASS_SPP] {
+            extend(t, n.min(max));
+        }
+        on_tile();
+    });
+    let pixels: u64 = tiles.iter().map(|t| t.tile.pixel_count()).sum();
+    let mut samples = pixels * FIRST_PASS_SPP.min(max) as u64;
+    let mut pass = 0;
+    let stop = loop {
+        let open = |t: &TileSums| t.n < max && t.estimate > target;
+        let done = !tiles.iter().any(open);
+        let threshold = adaptive.threshold(pass + 1);
+        let takes = |t: &TileSums| t.n < max && t.estimate > threshold;
+        let next_samples = tiles
+            .iter()
+            .filter(|t| takes(t))
+            .map(|t| t.tile.pixel_count() * ((2 * t.n).min(max) - t.n) as u64)
+            .sum();
+        let next_tiles = tiles.iter().filter(|t| takes(t)).count();
+        let progress = PassProgress {
+            pass,
+            estimate: adaptive::estimate(&tiles),
+            spp_mean: adaptive::spp_mean(&tiles),
+            samples,
+            next_samples,
+            next_tiles,
+            done,
+        };
+        let asked = on_pass(&progress);
+        if done {
+            let above = tiles
+                .iter()
+                .filter(|t| t.estimate > target || target == 0.0)
+                .count();
+            break if above == 0 {
+                Stop::Target
+            } else {
+                Stop::MaxSpp { above }
+            };
+        }
+        if asked.is_break() || adaptive.passes.is_some_and(|p| pass + 1 >= p) {
+            break Stop::Passes;
+        }
+        pass += 1;
+        tiles.par_iter_mut().filter(|t| takes(t)).for_each(|t| {
+            extend(t, (2 * t.n).min(max));
+            on_tile();
+        });
+        samples = next_samples;
+    };
+
+    // The pixels: each tile's means into the rectangles' places.
+    let mut spp = vec![0u32; out.len()];
+    for &(i, rect, offset) in &pieces {
+        let t = &tiles[i];
+        let part = adaptive::intersect(t.tile, rect);
+        for y in part.y0..part.y1 {
+            for x in part.x0..part.x1 {
+                let at = offset + ((y - rect.y0) * rect.width() + (x - rect.x0)) as usize;
+                out[at] = t.mean(((y - t.tile.y0) * t.tile.width() + (x - t.tile.x0)) as usize);
+                spp[at] = t.n;
+            }
+        }
+    }
+    let mut counts = RayCounts::default();
+    for t in &tiles {
+        counts.add(&t.counts);
+    }
+    let total: u64 = spp.iter().map(|&n| n as u64).sum();
+    (
+        counts,
+        Outcome {
+            passes: pass + 1,
+            stop,
+            estimate: adaptive::estimate(&tiles),
+            spp_min: spp.iter().copied().min().unwrap_or(0),
+            spp_max: spp.iter().copied().max().unwrap_or(0),
+            spp_mean: total as f64 / spp.len().max(1) as f64,
+            spp,
+        },
+    )
+}
+
 fn sum_counts(mut a: RayCounts, b: RayCounts) -> RayCounts {
     a.add(&b);
     a
 }
 
-/// Render the pixels of `tile` into `rows` (`rows[y - y0][x - x0]`).
+/// Render the pixels of `tile` into `rows` (`rows[y - y0][x - x0]`): each pixel the mean
+/// of its `spp` samples.
 fn render_tile(
     tracer: &Tracer,
     packet_width: PacketWidth,
     tile: Rect,
     rows: &mut [&mut [Vec3]],
 ) -> RayCounts {
+    let spp = tracer.scene.spp;
+    let mut sums = [Vec3::ZERO; (TILE * TILE) as usize];
+    let counts = accumulate_tile(tracer, packet_width, tile, 0..spp, &mut sums);
+    let stride = tile.width() as usize;
+    for (row, line) in rows.iter_mut().zip(sums.chunks_exact(stride)) {
+        for (pixel, sum) in row.iter_mut().zip(line) {
+            *pixel = *sum / spp as f32;
+        }
+    }
+    counts
+}
+
+/// Add the samples `samples` of each pixel of `tile` (at most `TILE` x `TILE`), in
+/// sample order, to its sum in `sums` (row by row, `tile.width()` a row). Summing the
+/// samples `0..n` in one call or in consecutive ranges gives the same bits.
+pub(crate) fn accumulate_tile(
+    tracer: &Tracer,
+    packet_width: PacketWidth,
+    tile: Rect,
+    samples: std::ops::Range<u32>,
+    sums: &mut [Vec3],
+) -> RayCounts {
     match packet_width {
-        PacketWidth::Eight => render_tile_packets::<f32x8>(tracer, tile, rows),
-        PacketWidth::Four => render_tile_packets::<Vec4>(tracer, tile, rows),
-        PacketWidth::Scalar => render_tile_scalar(tracer, tile, rows),
+        PacketWidth::Eight => accumulate_tile_packets::<f32x8>(tracer, tile, samples, sums),
+        PacketWidth::Four => accumulate_tile_packets::<Vec4>(tracer, tile, samples, sums),
+        PacketWidth::Scalar => accumulate_tile_scalar(tracer, tile, samples, sums),
     }
 }
 
 /// A tile one ray at a time (the scalar reference): `sample_pixels` at `f32`, with the
 /// tile's camera cone, so a tile whose cone meets nothing makes no ray, as the packets'
 /// tiles do.
-fn render_tile_scalar(tracer: &Tracer, tile: Rect, rows: &mut [&mut [Vec3]]) -> RayCounts {
-    let spp = tracer.scene.spp;
+fn accumulate_tile_scalar(
+    tracer: &Tracer,
+    tile: Rect,
+    samples: std::ops::Range<u32>,
+    sums: &mut [Vec3],
+) -> RayCounts {
     let mut counts = RayCounts::default();
     let cull = tracer.camera_cull(tile.x0, tile.y0, tile.x1, tile.y1);
-    for (y, row) in (tile.y0..tile.y1).zip(rows.iter_mut()) {
-        for (x, pixel) in (tile.x0..tile.x1).zip(row.iter_mut()) {
+    let stride = tile.width() as usize;
+    for (y, row) in (tile.y0..tile.y1).zip(sums.chunks_exact_mut(stride)) {
+        for (x, sum) in (tile.x0..tile.x1).zip(row.iter_mut()) {
             let hashes = tracer.pixel_hashes::<f32>(x, y);
-            let mut sum = Vec3::ZERO;
-            for s in 0..spp {
-                sum += tracer
+            for s in samples.clone() {
+                *sum += tracer
                     .sample_pixels::<f32>(x, y, &hashes, 1, s, cull, &mut counts)
                     .lane(0);
             }
-            *pixel = sum / spp as f32;
         }
     }
     counts
@@ -188,14 +441,16 @@ fn render_tile_scalar(tracer: &Tracer, tile: Rect, rows: &mut [&mut [Vec3]]) -> 
 
 /// A tile in packets of `L::WIDTH` pixels (4x2 or 2x2); lanes past the tile's edge are
 /// inactive. Each pixel sums its samples in sample order, as the scalar tile does.
-fn render_tile_packets<L: Lane>(
+fn accumulate_tile_packets<L: Lane>(
     tracer: &Tracer,
     tile: Rect,
-    rows: &mut [&mut [Vec3]],
+    samples: std::ops::Range<u32>,
+    sums: &mut [Vec3],
 ) -> RayCounts {
     let Rect { x0, y0, x1, y1 } = tile;
-    let spp = tracer.scene.spp;
     let (fw, fh) = footprint(L::WIDTH);
+    let stride = tile.width() as usize;
+    let taken = samples.len() as u64;
     let mut counts = RayCounts::default();
     // What the tile's camera rays may hit (the packets' footprints may reach past the
     // tile's edge: those lanes are inactive and never reported).
@@ -210,16 +465,25 @@ fn render_tile_packets<L: Lane>(
                     active |= 1 << k;
                 }
             }
-            let mut sums = V3::<L>::splat(Vec3::ZERO);
-            for s in 0..spp {
-                sums = sums + tracer.sample_packet::<L>(px, py, active, s, cull, &mut counts);
+            let at = |k: u32| {
+                let (x, y) = (px + k % fw, py + k / fw);
+                (y - y0) as usize * stride + (x - x0) as usize
+            };
+            let mut lanes = V3::<L>::from_fn(|k| {
+                if active >> k & 1 != 0 {
+                    sums[at(k as u32)]
+                } else {
+                    Vec3::ZERO
+                }
+            });
+            for s in samples.clone() {
+                lanes = lanes + tracer.sample_packet::<L>(px, py, active, s, cull, &mut counts);
             }
-            counts.cone_prims += cone_prims * active.count_ones() as u64 * spp as u64;
-            counts.cone_trees += cone_tree as u64 * spp as u64;
+            counts.cone_prims += cone_prims * active.count_ones() as u64 * taken;
+            counts.cone_trees += cone_tree as u64 * taken;
             for k in 0..L::WIDTH as u32 {
                 if active >> k & 1 != 0 {
-                    let (x, y) = (px + k % fw, py + k / fw);
-                    rows[(y - y0) as usize][(x - x0) as usize] = sums.lane(k as usize) / spp as f32;
+                    sums[at(k)] = lanes.lane(k as usize);
                 }
             }
         }

@@ -3,6 +3,7 @@
 //! [`Film`].
 
 use crate::accel::{Accel, AccelKind};
+use crate::adaptive::{Adaptive, PassProgress, Stop};
 use crate::budget::Budget;
 use crate::error::Result;
 use crate::farm::part::{self, Part, PixelSettings};
@@ -12,6 +13,7 @@ use crate::render::{self, Rendered};
 use crate::scene::desc::{ObjectDesc, SceneDesc};
 use crate::scene::{builtin, compile_within, mesh, Overrides, Scene, SceneSource};
 use crate::settings::RenderSettings;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
@@ -249,7 +251,67 @@ impl Renderer {
             rendered,
             self.name(),
             self.digest.get_or_init(|| part::scene_digest(&self.scene)),
-            PixelSettings::new(&self.scene, settings),
+            PixelSettings::new(&self.scene, settings, None),
+        ))
+    }
+
+    /// Render adaptively ([`Adaptive`]): passes that double the samples of the tiles
+    /// whose estimated error is above the target, until every tile reaches it or
+    /// `max_spp`, or the passes run out. `on_tile` is called after each tile of each
+    /// pass (from any thread), `on_pass` after each pass with the estimate so far; its
+    /// `Break` ends the render there (the outcome records the passes, which reproduce
+    /// the image as [`Adaptive::passes`]). The film is the same bits for any number of
+    /// threads, packet width and region split.
+    pub fn render_adaptive(
+        &self,
+        settings: &RenderSettings,
+        adaptive: &Adaptive,
+        on_tile: &(dyn Fn() + Sync),
+        on_pass: &mut dyn FnMut(&PassProgress) -> ControlFlow<()>,
+    ) -> Result<Rendered> {
+        render::render_adaptive(
+            &self.scene,
+            &self.accel,
+            settings,
+            adaptive,
+            on_tile,
+            on_pass,
+        )
+    }
+
+    /// [`Renderer::render_part`] with [`Renderer::render_adaptive`]'s sampling. The part
+    /// file records the adaptive settings and the passes run, so that parts merge only
+    /// with parts of the same settings.
+    pub fn render_part_adaptive(
+        &self,
+        settings: &RenderSettings,
+        adaptive: &Adaptive,
+        region: Region,
+        on_tile: &(dyn Fn() + Sync),
+        on_pass: &mut dyn FnMut(&PassProgress) -> ControlFlow<()>,
+    ) -> Result<Part> {
+        let rendered = render::render_region_sampled(
+            &self.scene,
+            &self.accel,
+            settings,
+            region,
+            render::Sampling::Adaptive(adaptive, on_pass),
+            on_tile,
+        )?;
+        let outcome = rendered.adaptive.as_ref();
+        // A render its caller cut short records its passes: the image is theirs.
+        let recorded = Adaptive {
+            passes: match outcome.map(|o| o.stop) {
+                Some(Stop::Passes) => outcome.map(|o| o.passes),
+                _ => adaptive.passes,
+            },
+            ..*adaptive
+        };
+        Ok(Part::new(
+            rendered,
+            self.name(),
+            self.digest.get_or_init(|| part::scene_digest(&self.scene)),
+            PixelSettings::new(&self.scene, settings, Some(&recorded)),
         ))
     }
 

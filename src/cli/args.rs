@@ -45,9 +45,39 @@ pub struct Args {
     #[arg(long, value_enum)]
     pub format: Option<Format>,
 
-    /// Samples per pixel (overrides the scene).
+    /// Samples per pixel (overrides the scene); every pixel takes them all.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
     pub spp: Option<u32>,
+
+    /// Render adaptively to this relative error (relative RMSE against the converged
+    /// image, as `raytracer sweep` measures it: 0.01 or 1%): tiles stop when their
+    /// estimated error reaches it, or at --max-spp.
+    #[arg(long, value_name = "E", value_parser = parse_target_error,
+          allow_hyphen_values = true, conflicts_with = "spp")]
+    pub target_error: Option<f32>,
+
+    /// The most samples a pixel takes when rendering adaptively [default: 1024].
+    #[arg(long, value_name = "N", conflicts_with = "spp",
+          value_parser = clap::value_parser!(u32).range(4..=1 << 20))]
+    pub max_spp: Option<u32>,
+
+    /// Render adaptively for at most this long (90s, 5m, 1h, 1.5m): passes until the
+    /// next would end past it. The summary and the report give the --passes that
+    /// reproduces the image without the clock.
+    #[arg(long, value_name = "DURATION", value_parser = parse_duration,
+          allow_hyphen_values = true, conflicts_with = "spp")]
+    pub time_limit: Option<std::time::Duration>,
+
+    /// Render adaptively for at most this many passes (the first takes 4 samples a
+    /// pixel, each later one doubles the tiles still above the target).
+    #[arg(long, value_name = "P", conflicts_with = "spp",
+          value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    pub passes: Option<u32>,
+
+    /// Write the samples each pixel took in an adaptive render to this image: .png or
+    /// .ppm (grey, log2(samples) / log2(--max-spp)), or .exr (the counts).
+    #[arg(long, value_name = "FILE")]
+    pub spp_map: Option<PathBuf>,
 
     /// Image width in pixels; the height follows the scene's aspect ratio.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
@@ -149,6 +179,50 @@ pub fn parse_bytes(text: &str) -> Result<u64, String> {
         ));
     }
     Ok(bytes as u64)
+}
+
+/// `--target-error`: a positive relative error, as a fraction (`0.02`) or a percentage
+/// (`2%`).
+pub fn parse_target_error(text: &str) -> Result<f32, String> {
+    let t = text.trim();
+    let (number, scale) = match t.strip_suffix('%') {
+        Some(n) => (n.trim(), 0.01),
+        None => (t, 1.0),
+    };
+    let value = number
+        .parse::<f64>()
+        .ok()
+        .map(|v| v * scale)
+        .filter(|v| v.is_finite() && *v > 0.0 && *v <= 1e3)
+        .ok_or_else(|| {
+            format!("'{text}' is not a positive relative error (a fraction such as 0.02, or 2%)")
+        })?;
+    Ok(value as f32)
+}
+
+/// `--time-limit`: a positive duration with a unit (`ms`, `s`, `m`, `h`), or seconds
+/// alone: `90s`, `5m`, `1.5h`, `250ms`, `30`.
+pub fn parse_duration(text: &str) -> Result<std::time::Duration, String> {
+    let t = text.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (number, unit) = t.split_at(split);
+    let bad = || format!("'{text}' is not a duration (a number with s, m or h: 90s, 5m, 1.5h)");
+    let seconds = match unit.trim() {
+        "" | "s" | "sec" => 1.0,
+        "ms" => 1e-3,
+        "m" | "min" => 60.0,
+        "h" => 3600.0,
+        _ => return Err(bad()),
+    };
+    let value: f64 = number.parse().map_err(|_| bad())?;
+    let total = value * seconds;
+    // Up to a year: beyond any render, and exact in a Duration.
+    if !(total > 0.0 && total <= 3.2e7) {
+        return Err(format!("'{text}' must be more than 0 and at most a year"));
+    }
+    Ok(std::time::Duration::from_secs_f64(total))
 }
 
 /// The subcommands: error against time, and merging part files.
@@ -344,6 +418,37 @@ impl From<Accel> for AccelKind {
 #[cfg(test)]
 mod tests {
     use super::parse_bytes;
+
+    #[test]
+    fn target_errors_and_durations() {
+        use super::{parse_duration, parse_target_error};
+        use std::time::Duration;
+        assert_eq!(parse_target_error("0.02"), Ok(0.02));
+        assert_eq!(parse_target_error("2%"), Ok(0.02));
+        assert_eq!(parse_target_error(" 10 % "), Ok(0.1));
+        for bad in ["", "0", "-0.1", "0%", "x", "nan", "inf", "1e9", "%", "2%%"] {
+            assert!(parse_target_error(bad).is_err(), "{bad}");
+        }
+        assert_eq!(parse_duration("90s"), Ok(Duration::from_secs(90)));
+        assert_eq!(parse_duration("5m"), Ok(Duration::from_secs(300)));
+        assert_eq!(parse_duration("1.5h"), Ok(Duration::from_secs(5400)));
+        assert_eq!(parse_duration("250ms"), Ok(Duration::from_millis(250)));
+        assert_eq!(parse_duration("30"), Ok(Duration::from_secs(30)));
+        for bad in [
+            "",
+            "0s",
+            "-5s",
+            "5 minutes",
+            "s",
+            "1.2.3s",
+            "5d",
+            "nan",
+            "1e3s",
+            "2y",
+        ] {
+            assert!(parse_duration(bad).is_err(), "{bad}");
+        }
+    }
 
     #[test]
     fn byte_counts_with_and_without_units() {

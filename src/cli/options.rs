@@ -39,6 +39,13 @@ pub struct RenderOptions {
     pub stats: bool,
     /// Progress bar, notes and the summary line (off with `--quiet`).
     pub notes: bool,
+    /// `Some`: render adaptively (`--target-error`, `--max-spp`, `--time-limit` or
+    /// `--passes` given).
+    pub adaptive: Option<raytracer::Adaptive>,
+    /// `--time-limit`: no pass starts that would end past it.
+    pub time_limit: Option<std::time::Duration>,
+    /// `--spp-map`: the samples each pixel took, as an image.
+    pub spp_map: Option<PathBuf>,
 }
 
 /// `raytracer reference`.
@@ -179,6 +186,40 @@ fn render(args: Args) -> anyhow::Result<RenderOptions> {
         output::check_not_an_input("-o", &output, &inputs)?;
         output::check_writable(&output)?;
     }
+    let adaptive = if args.target_error.is_some()
+        || args.max_spp.is_some()
+        || args.time_limit.is_some()
+        || args.passes.is_some()
+    {
+        let max_spp = args.max_spp.unwrap_or(raytracer::Adaptive::DEFAULT_MAX_SPP);
+        Some(raytracer::Adaptive::new(
+            args.target_error,
+            max_spp,
+            args.passes,
+        )?)
+    } else {
+        None
+    };
+    if let Some(map) = &args.spp_map {
+        if adaptive.is_none() {
+            anyhow::bail!(
+                "--spp-map maps an adaptive render: give --target-error, --time-limit, \
+                 --max-spp or --passes (with --spp every pixel takes the same samples)"
+            );
+        }
+        if region.is_some() {
+            anyhow::bail!("--spp-map maps a whole frame, not a part file");
+        }
+        ImageFormat::for_path(map).map_err(|e| anyhow::anyhow!("--spp-map: {e}"))?;
+        output::check_not_an_input("--spp-map", map, &inputs)?;
+        output::check_writable(map)?;
+        if same_path(map, &output) || args.report.as_deref().is_some_and(|r| same_path(map, r)) {
+            anyhow::bail!(
+                "--spp-map {} names the image or the report: give it a file of its own",
+                map.display()
+            );
+        }
+    }
     if let Some(report) = &args.report {
         if is_stdout(report) {
             if image_to_stdout {
@@ -213,6 +254,9 @@ fn render(args: Args) -> anyhow::Result<RenderOptions> {
         report: args.report,
         stats: args.stats,
         notes: !args.quiet,
+        adaptive,
+        time_limit: args.time_limit,
+        spp_map: args.spp_map,
     })
 }
 
@@ -239,6 +283,12 @@ fn image_format(output: &Path, given: Option<args::Format>) -> anyhow::Result<Im
         );
     }
     Ok(format)
+}
+
+/// Do `a` and `b` name the same file (by their absolute paths, whether they exist)?
+fn same_path(a: &Path, b: &Path) -> bool {
+    let absolute = |p: &Path| std::path::absolute(p).ok();
+    a == b || absolute(a).is_some_and(|x| Some(x) == absolute(b))
 }
 
 fn is_part(path: &Path) -> bool {

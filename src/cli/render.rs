@@ -3,13 +3,13 @@
 //! (all or nothing), then the statistics and the summary line.
 
 use super::options::{is_stdout, RenderOptions};
-use super::run::{Run, Timings};
+use super::run::{percent, stop_text, Run, Timings};
 use super::{report, stats};
 use anyhow::Context;
 use raytracer::output::OutputSet;
 use raytracer::{PacketWidth, Part, Region, Rendered, Renderer};
 use std::io::IsTerminal;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// The pixels of a run: the frame, or a region of it for a part file.
 enum Pixels {
@@ -48,10 +48,29 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
             b.inc(1)
         }
     };
-    let pixels = match o.region {
-        None => Pixels::Frame(renderer.render_with_progress(&o.settings, &on_tile)?),
-        Some(region) => {
+    let pixels = match (o.region, &o.adaptive) {
+        (None, None) => Pixels::Frame(renderer.render_with_progress(&o.settings, &on_tile)?),
+        (Some(region), None) => {
             Pixels::Part(renderer.render_part_with_progress(&o.settings, region, &on_tile)?)
+        }
+        (region, Some(adaptive)) => {
+            let mut clock = PassClock::new(o.time_limit);
+            let mut on_pass = |p: &raytracer::PassProgress| clock.after_pass(p, bar.as_ref());
+            match region {
+                None => Pixels::Frame(renderer.render_adaptive(
+                    &o.settings,
+                    adaptive,
+                    &on_tile,
+                    &mut on_pass,
+                )?),
+                Some(region) => Pixels::Part(renderer.render_part_adaptive(
+                    &o.settings,
+                    adaptive,
+                    region,
+                    &on_tile,
+                    &mut on_pass,
+                )?),
+            }
         }
     };
     if let Some(b) = &bar {
@@ -66,16 +85,28 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
     let mut files = OutputSet::default();
     let image_to_stdout = is_stdout(&o.output);
     let report_to_stdout = o.report.as_deref().is_some_and(is_stdout);
-    let (counts, non_finite) = match &pixels {
+    let (counts, non_finite, adaptive) = match &pixels {
         Pixels::Frame(rendered) => {
             if !image_to_stdout {
                 files.add_image(&rendered.film, &o.output)?;
             }
-            (rendered.counts, rendered.film.non_finite_count())
+            if let (Some(map), Some(outcome)) = (&o.spp_map, &rendered.adaptive) {
+                let max = o.adaptive.map_or(1, |a| a.max_spp);
+                files.add_image(&spp_map(&rendered.film, outcome, max, map)?, map)?;
+            }
+            (
+                rendered.counts,
+                rendered.film.non_finite_count(),
+                rendered.adaptive.clone(),
+            )
         }
         Pixels::Part(part) => {
             part.add_to(&mut files, &o.output)?;
-            (part.counts(), part.non_finite_count())
+            (
+                part.counts(),
+                part.non_finite_count(),
+                part.adaptive().cloned(),
+            )
         }
     };
     let mut run = Run {
@@ -84,6 +115,7 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
         counts,
         non_finite,
         threads,
+        adaptive,
         timings: Timings {
             load: (built - start).saturating_sub(renderer.build_time()),
             build: renderer.build_time(),
@@ -124,7 +156,7 @@ fn progress_bar(tiles: u64) -> Option<indicatif::ProgressBar> {
     let bar = indicatif::ProgressBar::new(tiles);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
-            "{spinner} {wide_bar} {percent}% {elapsed}/{duration}",
+            "{spinner} {msg} {wide_bar} {percent}% {elapsed}/{duration}",
         )
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
@@ -141,19 +173,108 @@ fn summary(run: &Run) {
         );
     }
     let render_s = run.timings.render.as_secs_f64();
+    let sampling = match &run.adaptive {
+        None => format!("{} spp", r.spp()),
+        Some(a) => format!(
+            "{:.1} spp (min {}, max {}), est. error {}, {} passes: {}",
+            a.spp_mean,
+            a.spp_min,
+            a.spp_max,
+            percent(a.estimate),
+            a.passes,
+            stop_text(run.options, a)
+        ),
+    };
     to_stderr!(
-        "{}: {}{}x{}, {} spp, {:.3} s render ({:.3} s total), {:.2} M rays, {:.1} Mrays/s -> {}",
+        "{}: {}{}x{}, {}, {:.3} s render ({:.3} s total), {:.2} M rays, {:.1} Mrays/s -> {}",
         r.name(),
         run.options
             .region
             .map_or_else(String::new, |region| format!("{region} of ")),
         r.width(),
         r.height(),
-        r.spp(),
+        sampling,
         render_s,
         run.timings.start.elapsed().as_secs_f64(),
         counts.total() as f64 / 1e6,
         counts.total() as f64 / 1e6 / render_s.max(1e-9),
         super::output_name(&run.options.output)
     );
+}
+
+/// The samples each pixel took as an image: for PNG and PPM a grey level of
+/// log2(samples) / log2(max_spp) (the film holds its square, which the gamma-2 encoding
+/// takes back), for EXR the counts themselves.
+fn spp_map(
+    film: &raytracer::Film,
+    outcome: &raytracer::Outcome,
+    max_spp: u32,
+    path: &std::path::Path,
+) -> anyhow::Result<raytracer::Film> {
+    let exr =
+        raytracer::output::ImageFormat::for_path(path)? == raytracer::output::ImageFormat::Exr;
+    let mut map = raytracer::Film::new(film.width, film.height)?;
+    let top = (max_spp as f32).log2();
+    for (pixel, &n) in map.pixels.iter_mut().zip(&outcome.spp) {
+        let v = if exr {
+            n as f32
+        } else {
+            let g = (n as f32).log2() / top;
+            g * g
+        };
+        *pixel = raytracer::Vec3::splat(v);
+    }
+    Ok(map)
+}
+
+/// The clock of an adaptive run: the progress bar's pass and estimate, and the time
+/// limit (no pass starts that its predecessor's rate says would end past it).
+struct PassClock {
+    limit: Option<Duration>,
+    start: Instant,
+    pass_start: Instant,
+    /// Camera samples a second in the last pass that took any.
+    rate: Option<f64>,
+}
+
+impl PassClock {
+    fn new(limit: Option<Duration>) -> Self {
+        let now = Instant::now();
+        Self {
+            limit,
+            start: now,
+            pass_start: now,
+            rate: None,
+        }
+    }
+
+    fn after_pass(
+        &mut self,
+        p: &raytracer::PassProgress,
+        bar: Option<&indicatif::ProgressBar>,
+    ) -> std::ops::ControlFlow<()> {
+        let now = Instant::now();
+        let took = (now - self.pass_start).as_secs_f64();
+        self.pass_start = now;
+        if let Some(b) = bar {
+            b.set_message(format!(
+                "pass {} · est. error {} · {:.1} spp",
+                p.pass + 1,
+                percent(p.estimate),
+                p.spp_mean
+            ));
+            b.set_position(0);
+            b.set_length(p.next_tiles.max(1) as u64);
+        }
+        if p.samples > 0 {
+            self.rate = Some(p.samples as f64 / took.max(1e-9));
+        }
+        if let (Some(limit), Some(rate)) = (self.limit, self.rate) {
+            let next = p.next_samples as f64 / rate;
+            if (now - self.start).as_secs_f64() + next > limit.as_secs_f64() {
+                return std::ops::ControlFlow::Break(());
+            }
+        }
+        std::ops::ControlFlow::Continue(())
+    }
 }

@@ -23,6 +23,34 @@ struct Report<'a> {
     region: Option<String>,
     /// Pixels with a NaN or infinite channel (`Film::non_finite_count`).
     non_finite_pixels: usize,
+    /// An adaptive render's settings and outcome; absent for `--spp`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    adaptive: Option<AdaptiveReport>,
+}
+
+#[derive(Debug, serde::Serialize)]
+struct AdaptiveReport {
+    /// `--target-error`, a relative RMSE (absent without one).
+    target_error: Option<f32>,
+    max_spp: u32,
+    /// Passes run; `--passes` with this number renders the same image.
+    passes: u32,
+    /// `target`, `max_spp` or `passes` (the passes given, or the time limit's).
+    stop: &'static str,
+    /// The summary line's words for the stop.
+    stop_reason: String,
+    /// The estimated relative RMSE of the image (of the part, for a part file).
+    estimated_error: f64,
+    /// Samples a pixel.
+    spp: SppStats,
+    time_limit_seconds: Option<f64>,
+}
+
+#[derive(Debug, serde::Serialize)]
+struct SppStats {
+    mean: f64,
+    min: u32,
+    max: u32,
 }
 
 #[derive(Debug, serde::Serialize)]
@@ -89,6 +117,24 @@ pub fn json(run: &Run) -> anyhow::Result<String> {
         rays: run.counts.into(),
         region: run.options.region.map(|r| r.to_string()),
         non_finite_pixels: run.non_finite,
+        adaptive: run.adaptive.as_ref().map(|a| AdaptiveReport {
+            target_error: run.options.adaptive.and_then(|s| s.target_error),
+            max_spp: run.options.adaptive.map_or(0, |s| s.max_spp),
+            passes: a.passes,
+            stop: match a.stop {
+                raytracer::Stop::Target => "target",
+                raytracer::Stop::MaxSpp { .. } => "max_spp",
+                raytracer::Stop::Passes => "passes",
+            },
+            stop_reason: super::run::stop_text(run.options, a),
+            estimated_error: a.estimate,
+            spp: SppStats {
+                mean: a.spp_mean,
+                min: a.spp_min,
+                max: a.spp_max,
+            },
+            time_limit_seconds: run.options.time_limit.map(|t| t.as_secs_f64()),
+        }),
     };
     Ok(serde_json::to_string_pretty(&report)?)
 }

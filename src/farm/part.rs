@@ -17,6 +17,7 @@
 //! One file past 700 lines (a sixth of it tests): the writer and the checking readers
 //! of one format, kept together so they cannot drift apart.
 
+use crate::adaptive::Adaptive;
 use crate::error::{Error, Result};
 use crate::farm::region::{Rect, Region, TILE};
 use crate::integrator::RayCounts;
@@ -79,11 +80,45 @@ pub struct PixelSettings {
     pub seed: u32,
     /// `SamplerKind::name`.
     pub sampler: String,
+    /// The adaptive settings of an adaptive render (absent for `spp` samples a pixel).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adaptive: Option<AdaptiveSettings>,
+}
+
+/// An adaptive render's settings, as a part file records them: the target, the sample
+/// budget and the passes (those given, or those run when the run was cut short).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AdaptiveSettings {
+    /// The relative RMSE target (written as the shortest decimal that reads back to the
+    /// same f32).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub target_error: Option<f32>,
+    pub max_spp: u32,
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub passes: Option<u32>,
+}
+
+/// The target is a checked finite number, never NaN.
+impl Eq for AdaptiveSettings {}
+
+impl AdaptiveSettings {
+    fn describe(s: &Option<AdaptiveSettings>) -> String {
+        match s {
+            None => "uniform sampling".into(),
+            Some(a) => format!(
+                "adaptive (target {}, max spp {}, passes {})",
+                a.target_error.map_or("none".into(), |e| e.to_string()),
+                a.max_spp,
+                a.passes.map_or("until done".into(), |p| p.to_string())
+            ),
+        }
+    }
 }
 
 impl PixelSettings {
-    /// The settings of a render of `scene` with `settings`.
-    pub fn new(scene: &Scene, settings: &RenderSettings) -> Self {
+    /// The settings of a render of `scene` with `settings`, adaptive or not.
+    pub fn new(scene: &Scene, settings: &RenderSettings, adaptive: Option<&Adaptive>) -> Self {
         Self {
             width: scene.camera.width,
             height: scene.camera.height,
@@ -91,6 +126,11 @@ impl PixelSettings {
             max_depth: scene.max_depth,
             seed: settings.seed,
             sampler: settings.sampler.name().to_string(),
+            adaptive: adaptive.map(|a| AdaptiveSettings {
+                target_error: a.target_error,
+                max_spp: a.max_spp,
+                passes: a.passes,
+            }),
         }
     }
 
@@ -107,6 +147,11 @@ impl PixelSettings {
             ),
             ("seed", self.seed.to_string(), other.seed.to_string()),
             ("sampler", self.sampler.clone(), other.sampler.clone()),
+            (
+                "sampling",
+                AdaptiveSettings::describe(&self.adaptive),
+                AdaptiveSettings::describe(&other.adaptive),
+            ),
         ];
         pairs.into_iter().find(|(_, a, b)| a != b)
     }
@@ -364,6 +409,11 @@ impl Part {
     /// Pixels with a NaN or infinite channel.
     pub fn non_finite_count(&self) -> usize {
         self.pixels().iter().filter(|p| !p.is_finite()).count()
+    }
+
+    /// What an adaptive render of the part did (`None` for `spp` samples a pixel).
+    pub fn adaptive(&self) -> Option<&crate::adaptive::Outcome> {
+        self.rendered.adaptive.as_ref()
     }
 
     /// Write the part file to `path` (any name; `.part` by convention): a temporary file

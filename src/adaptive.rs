@@ -1,0 +1,293 @@
+//! Adaptive sampling: a render in passes that spends its samples where the error is.
+//!
+//! Every 16x16 tile of the frame's tile lattice (`render::TILE`) keeps the running sum of
+//! its pixels' samples and the sum of their first half, and estimates its own error from
+//! the two halves (below). Pass 0 takes [`FIRST_PASS_SPP`] samples a pixel everywhere;
+//! each later pass doubles the samples of the tiles whose estimate is still above the
+//! pass's threshold, up to `max_spp`. Everything a tile decides depends on its own
+//! samples alone, so the image is the same bits on any thread count, packet width, tile
+//! order and region split, and a tile that took n samples has the bits of the same tile
+//! rendered with `--spp n` (the samples are summed in sample order either way).
+//!
+//! **The error.** The target is the relative RMSE that `raytracer sweep` measures against
+//! a converged reference: the square root of relMSE, the mean over pixels and channels
+//! of (x − r)² / (r² + ε), ε = 0.01 (`metrics`). A tile stops when its estimated relMSE
+//! is at most the target's square.
+//!
+//! **The estimate.** After n samples a pixel's mean M splits into the mean A of its first
+//! a = n/2 samples and the mean B of the other b (Dammertz et al. 2010 and Rousselle et
+//! al. 2011 split a pixel's samples into two half-images the same way). With independent
+//! samples of variance σ², E[(A − B)²] = σ²(1/a + 1/b), so (M − A)²·a/b, which equals
+//! (A − B)²·ab/n², estimates σ²/n, the squared error of M, without bias. The first and
+//! second halves of a pixel's samples, not its even and odd ones, because a half must be
+//! a good sample set of its own: the Sobol sampler's even-numbered points all lie in one
+//! half of the pixel, its first 2^k points form a (0, k, 2)-net and so do the next 2^k.
+//!
+//! Stratified samples are not independent: the two halves' errors partly cancel, and
+//! (M − A)² overestimates the squared error of M. If a tile's squared error falls as
+//! n^κ (κ = −1 for independent numbers, about −1.5 for Sobol at edges and soft shadows),
+//! each half has 2^−κ times the error of the whole and the estimate is (2^−κ − 1) times
+//! the truth. A tile measures its own rate from its last two estimates,
+//! r = est(n) / est(n/2) = 2^κ, bounded to [1/4, 1/2] (κ from −2 to −1), and divides by
+//! (1/r − 1). The independent sampler keeps r = 1/2: its estimate needs no correction.
+//!
+//! **Passes.** Pass p ≥ 1 doubles the tiles whose estimate is above
+//! max(target², `RAMP_START` · 2^(1−p)): the worst tiles first, the threshold halving a
+//! pass until it reaches the target, so that a run cut short (by a time limit) has about
+//! the same error everywhere. The ramp orders the work; the tiles' final sample counts
+//! are those of doubling every tile above the target, pass after pass.
+
+use crate::error::{Error, Result};
+use crate::farm::region::Rect;
+use crate::integrator::RayCounts;
+use crate::metrics::REL_MSE_EPSILON;
+use crate::sampling::SamplerKind;
+use glam::Vec3;
+
+/// Samples a pixel that pass 0 takes everywhere (with estimates at 2 and 4 samples, so
+/// that the first decision knows the tile's rate).
+pub const FIRST_PASS_SPP: u32 = 4;
+
+/// The threshold of pass 1, in relMSE (a relative RMSE of 1/8); it halves every pass.
+pub const RAMP_START: f64 = 1.0 / 64.0;
+
+/// The bounds of a tile's measured rate r = est(n) / est(n/2).
+const RATE_BOUNDS: (f64, f64) = (0.25, 0.5);
+
+/// What an adaptive render aims at: a relative error, a sample budget per pixel and a
+/// number of passes. The image depends on these (and on the render's settings) only.
+#[derive(Clone, Copy, Debug)]
+pub struct Adaptive {
+    /// The relative RMSE each tile renders to (`None`: every tile goes on to `max_spp`,
+    /// or until the passes run out).
+    pub target_error: Option<f32>,
+    /// The most samples a pixel takes.
+    pub max_spp: u32,
+    /// The most passes (`None`: until every tile stops).
+    pub passes: Option<u32>,
+}
+
+/// Compares the target by its bits.
+impl PartialEq for Adaptive {
+    fn eq(&self, other: &Self) -> bool {
+        self.target_error.map(f32::to_bits) == other.target_error.map(f32::to_bits)
+            && self.max_spp == other.max_spp
+            && self.passes == other.passes
+    }
+}
+
+impl Eq for Adaptive {}
+
+impl Adaptive {
+    /// The default sample budget a pixel.
+    pub const DEFAULT_MAX_SPP: u32 = 1024;
+
+    /// Checked settings: a target that is a positive finite number, `max_spp` of at
+    /// least 4 (the first pass's samples) and at most 2^20, at least one pass.
+    pub fn new(target_error: Option<f32>, max_spp: u32, passes: Option<u32>) -> Result<Self> {
+        if let Some(e) = target_error {
+            if !(e.is_finite() && e > 0.0) {
+                return Err(Error::Options(format!(
+                    "the target error must be a positive number, got {e}"
+                )));
+            }
+        }
+        if !(FIRST_PASS_SPP..=1 << 20).contains(&max_spp) {
+            return Err(Error::Options(format!(
+                "the most samples a pixel must be from {FIRST_PASS_SPP} to {}, got {max_spp}",
+                1 << 20
+            )));
+        }
+        if passes == Some(0) {
+            return Err(Error::Options(
+                "an adaptive render takes at least one pass".into(),
+            ));
+        }
+        Ok(Self {
+            target_error,
+            max_spp,
+            passes,
+        })
+    }
+
+    /// The target's square: the relMSE a tile stops at (0 without a target).
+    pub fn target_rel_mse(&self) -> f64 {
+        self.target_error.map_or(0.0, |e| e as f64 * e as f64)
+    }
+
+    /// The relMSE estimate above which a tile takes pass `pass` (≥ 1).
+    pub fn threshold(&self, pass: u32) -> f64 {
+        let ramp = RAMP_START * 0.5f64.powi(pass.saturating_sub(1).min(1000) as i32);
+        ramp.max(self.target_rel_mse())
+    }
+}
+
+/// Where an adaptive render stands after a pass, for a progress display.
+#[derive(Clone, Copy, Debug)]
+pub struct PassProgress {
+    /// The pass just finished, from 0.
+    pub pass: u32,
+    /// The estimated relative RMSE of the image so far.
+    pub estimate: f64,
+    /// Samples a pixel, the mean over the image so far.
+    pub spp_mean: f64,
+    /// Camera samples the pass took.
+    pub samples: u64,
+    /// Camera samples the next pass will take.
+    pub next_samples: u64,
+    /// Tiles the next pass will render.
+    pub next_tiles: usize,
+    /// Whether the render is over (every tile stopped).
+    pub done: bool,
+}
+
+/// Why an adaptive render ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stop {
+    /// Every tile reached the target.
+    Target,
+    /// Every tile reached the target or `max_spp`; `above` tiles are at `max_spp` with
+    /// their estimate above the target (all of them, without a target).
+    MaxSpp {
+        /// Tiles stopped by `max_spp` before reaching the target.
+        above: usize,
+    },
+    /// The passes ran out (`Adaptive::passes`, or the caller stopped after a pass).
+    Passes,
+}
+
+/// What an adaptive render did: passes, why it stopped, the estimated error and the
+/// samples each pixel took.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Outcome {
+    /// Passes run (the image is that of `Adaptive::passes = Some(passes)`).
+    pub passes: u32,
+    /// Why it ended.
+    pub stop: Stop,
+    /// The estimated relative RMSE of the image (of the region's pixels).
+    pub estimate: f64,
+    /// Samples a pixel, the fewest.
+    pub spp_min: u32,
+    /// Samples a pixel, the most.
+    pub spp_max: u32,
+    /// Samples a pixel, the mean.
+    pub spp_mean: f64,
+    /// Samples of each pixel, in the order of the render's pixels.
+    pub spp: Vec<u32>,
+}
+
+/// One tile of the frame's lattice in an adaptive render: its pixels' sums and its
+/// estimate. The render (`render::render_rects_adaptive`) adds the samples.
+pub(crate) struct TileSums {
+    pub tile: Rect,
+    /// The sum of each pixel's first `n` samples, row by row.
+    pub sums: Vec<Vec3>,
+    /// The sum of each pixel's first `n_half` samples.
+    half: Vec<Vec3>,
+    pub n: u32,
+    n_half: u32,
+    /// The uncorrected estimate (relMSE) at `n`, and the rate r of the last doubling.
+    raw: f64,
+    rate: f64,
+    /// The corrected relMSE estimate at `n`.
+    pub estimate: f64,
+    /// Pixels of the render's region inside the tile.
+    pub weight: u64,
+    pub counts: RayCounts,
+}
+
+impl TileSums {
+    pub fn new(tile: Rect, weight: u64) -> Self {
+        let n = tile.pixel_count() as usize;
+        Self {
+            tile,
+            sums: vec![Vec3::ZERO; n],
+            half: vec![Vec3::ZERO; n],
+            n: 0,
+            n_half: 0,
+            raw: f64::INFINITY,
+            rate: RATE_BOUNDS.1,
+            estimate: f64::INFINITY,
+            weight,
+            counts: RayCounts::default(),
+        }
+    }
+
+    /// Before samples `self.n..`: the sums so far become the first half.
+    pub fn start_step(&mut self) {
+        self.half.copy_from_slice(&self.sums);
+        self.n_half = self.n;
+    }
+
+    /// After the samples up to `n` were added to `sums`: the estimate at `n`.
+    pub fn end_step(&mut self, n: u32, counts: &RayCounts, kind: SamplerKind) {
+        self.counts.add(counts);
+        self.n = n;
+        if self.n_half > 0 {
+            self.checkpoint(kind);
+        }
+    }
+
+    /// The estimate at `n` from the halves `[0, n_half)` and `[n_half, n)`.
+    fn checkpoint(&mut self, kind: SamplerKind) {
+        let (n, a) = (self.n as f32, self.n_half as f32);
+        let b = n - a;
+        let mut total = 0.0f64;
+        for (sum, half) in self.sums.iter().zip(&self.half) {
+            let m = *sum / n;
+            let d = m - *half / a;
+            for (m, d) in m.to_array().into_iter().zip(d.to_array()) {
+                let (m, d) = (m as f64, d as f64);
+                total += d * d * (a / b) as f64 / (m * m + REL_MSE_EPSILON);
+            }
+        }
+        let raw = total / (3 * self.sums.len()) as f64;
+        // A finite doubling measures the rate; a last, shorter step keeps the last one.
+        if kind != SamplerKind::Independent && self.n == 2 * self.n_half && self.raw.is_finite() {
+            let r = if self.raw > 0.0 {
+                raw / self.raw
+            } else {
+                RATE_BOUNDS.1
+            };
+            self.rate = if r.is_nan() {
+                RATE_BOUNDS.1
+            } else {
+                r.clamp(RATE_BOUNDS.0, RATE_BOUNDS.1)
+            };
+        }
+        self.raw = raw;
+        self.estimate = if raw.is_finite() {
+            raw * self.rate / (1.0 - self.rate)
+        } else {
+            f64::INFINITY
+        };
+    }
+
+    /// Pixel `i`'s mean.
+    pub fn mean(&self, i: usize) -> Vec3 {
+        self.sums[i] / self.n as f32
+    }
+}
+
+pub(crate) fn intersect(a: Rect, b: Rect) -> Rect {
+    Rect::new(
+        a.x0.max(b.x0),
+        a.y0.max(b.y0),
+        a.x1.min(b.x1),
+        a.y1.min(b.y1),
+    )
+}
+
+/// The estimated relative RMSE of the region: its pixels' mean estimated relMSE.
+pub(crate) fn estimate(tiles: &[TileSums]) -> f64 {
+    let weight: u64 = tiles.iter().map(|t| t.weight).sum();
+    let sum: f64 = tiles.iter().map(|t| t.estimate * t.weight as f64).sum();
+    (sum / weight.max(1) as f64).sqrt()
+}
+
+/// The region's mean samples a pixel.
+pub(crate) fn spp_mean(tiles: &[TileSums]) -> f64 {
+    let weight: u64 = tiles.iter().map(|t| t.weight).sum();
+    let sum: f64 = tiles.iter().map(|t| t.n as f64 * t.weight as f64).sum();
+    sum / weight.max(1) as f64
+}
