@@ -27,9 +27,15 @@
 //! (M − A)² overestimates the squared error of M. If a tile's squared error falls as
 //! n^κ (κ = −1 for independent numbers, about −1.5 for Sobol at edges and soft shadows),
 //! each half has 2^−κ times the error of the whole and the estimate is (2^−κ − 1) times
-//! the truth. A tile measures its own rate from its last two estimates,
-//! r = est(n) / est(n/2) = 2^κ, bounded to [1/4, 1/2] (κ from −2 to −1), and divides by
-//! (1/r − 1). The independent sampler keeps r = 1/2: its estimate needs no correction.
+//! the truth. A tile measures its own rate at each doubling, r = est(n) / est(n/2) = 2^κ,
+//! bounded to [1/4, 1/2] (κ from −2 to −1), keeps the geometric mean of its measures and
+//! divides by (1/r − 1). The independent sampler keeps r = 1/2: its estimate needs no
+//! correction.
+//!
+//! A tile stops when its estimate is low, so a noisy estimate is biased low at the stop:
+//! the tiles that stop first are those whose estimate came out low. The estimate a tile
+//! decides on is therefore the mean of two looks: this doubling's, and the last one
+//! carried forward by the rate (r times the estimate at n/2).
 //!
 //! **Passes.** Pass p ≥ 1 doubles the tiles whose estimate is above
 //! max(target², `RAMP_START` · 2^(1−p)): the worst tiles first, the threshold halving a
@@ -186,9 +192,13 @@ pub(crate) struct TileSums {
     half: Vec<Vec3>,
     pub n: u32,
     n_half: u32,
-    /// The uncorrected estimate (relMSE) at `n`, and the rate r of the last doubling.
+    /// The uncorrected estimate (relMSE) at `n`.
     raw: f64,
+    /// The tile's rate r = est(n) / est(n/2): the geometric mean of `rates` measures,
+    /// whose logarithms sum to `log_rates` (1/2 for independent numbers).
     rate: f64,
+    rates: u32,
+    log_rates: f64,
     /// The corrected relMSE estimate at `n`.
     pub estimate: f64,
     /// Pixels of the render's region inside the tile.
@@ -207,6 +217,8 @@ impl TileSums {
             n_half: 0,
             raw: f64::INFINITY,
             rate: RATE_BOUNDS.1,
+            rates: 0,
+            log_rates: 0.0,
             estimate: f64::INFINITY,
             weight,
             counts: RayCounts::default(),
@@ -242,25 +254,28 @@ impl TileSums {
             }
         }
         let raw = total / (3 * self.sums.len()) as f64;
-        // A finite doubling measures the rate; a last, shorter step keeps the last one.
-        if kind != SamplerKind::Independent && self.n == 2 * self.n_half && self.raw.is_finite() {
-            let r = if self.raw > 0.0 {
-                raw / self.raw
+        let doubled = self.n == 2 * self.n_half;
+        // A doubling measures the rate; the tile's rate is the geometric mean of its
+        // measures (one measure is noisy, and a stop would select the low ones).
+        if kind != SamplerKind::Independent && doubled && self.raw.is_finite() {
+            let r = if self.raw > 0.0 && raw.is_finite() {
+                (raw / self.raw).clamp(RATE_BOUNDS.0, RATE_BOUNDS.1)
             } else {
                 RATE_BOUNDS.1
             };
-            self.rate = if r.is_nan() {
-                RATE_BOUNDS.1
-            } else {
-                r.clamp(RATE_BOUNDS.0, RATE_BOUNDS.1)
-            };
+            self.rates += 1;
+            self.log_rates += r.ln();
+            self.rate = (self.log_rates / self.rates as f64).exp();
         }
-        self.raw = raw;
-        self.estimate = if raw.is_finite() {
-            raw * self.rate / (1.0 - self.rate)
+        let now = raw * self.rate / (1.0 - self.rate);
+        // The mean of this estimate and the last one carried to n by the rate: two
+        // half-independent looks, so that a tile does not stop on one low draw.
+        self.estimate = if doubled && self.estimate.is_finite() {
+            0.5 * (now + self.estimate * self.rate)
         } else {
-            f64::INFINITY
+            now
         };
+        self.raw = raw;
     }
 
     /// Pixel `i`'s mean.
