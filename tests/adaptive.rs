@@ -371,3 +371,59 @@ fn a_time_limited_run_is_reproduced_by_its_passes() {
         std::fs::read(dir.path().join("passes.exr")).unwrap()
     );
 }
+
+/// `sweep --targets` adds an adaptive series: its rows in the CSV with the target and the
+/// estimate, its line in the chart's legend and its calibration in the summary.
+#[test]
+fn a_sweep_gains_adaptive_series() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = run(
+        dir.path(),
+        &[
+            "sweep",
+            "spheres",
+            "--width",
+            "16",
+            "--spp-max",
+            "8",
+            "--runs",
+            "1",
+            "--reference-spp",
+            "64",
+            "--reference",
+            "ref.exr",
+            "--samplers",
+            "independent,sobol",
+            "--targets",
+            "10%,0.05",
+            "--max-spp",
+            "64",
+            "--out",
+            "sweep",
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csv = std::fs::read_to_string(dir.path().join("sweep/spheres.csv")).unwrap();
+    let adaptive: Vec<&str> = csv
+        .lines()
+        .filter(|l| l.contains(",0.1,") || l.contains(",0.05,"))
+        .collect();
+    assert_eq!(adaptive.len(), 2, "{csv}");
+    assert!(csv
+        .lines()
+        .nth(1)
+        .unwrap()
+        .ends_with("target_error,estimated_rel_rmse,spp_mean"));
+    let svg = std::fs::read_to_string(dir.path().join("sweep/spheres.svg")).unwrap();
+    assert!(svg.contains("sobol adaptive"));
+    assert!(
+        stdout.contains("sobol adaptive | target 10.00%"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("vs uniform sobol"), "{stdout}");
+}

@@ -304,6 +304,16 @@ pub struct SweepArgs {
     /// Seed of the swept renders.
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
+    /// Adaptive series: render to each of these target errors (relative RMSE, 0.02 or
+    /// 2%) with each of --adaptive-samplers [default: none].
+    #[arg(long, value_delimiter = ',', value_parser = parse_target_error)]
+    pub targets: Vec<f32>,
+    /// Samplers of the adaptive series.
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = [Sampler::Sobol])]
+    pub adaptive_samplers: Vec<Sampler>,
+    /// The most samples a pixel of an adaptive render.
+    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(4..=1 << 20))]
+    pub max_spp: u32,
     /// Directory of the CSV (<scene>.csv), chart (<scene>.svg) and summary (<scene>.txt).
     #[arg(long, default_value = "target/sweep")]
     pub out: PathBuf,

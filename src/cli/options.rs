@@ -73,6 +73,10 @@ pub struct SweepOptions {
     pub out: PathBuf,
     pub reference: PathBuf,
     pub reference_spp: u32,
+    /// Adaptive series: targets, samplers and the sample budget.
+    pub targets: Vec<f32>,
+    pub adaptive_samplers: Vec<SamplerKind>,
+    pub max_spp: u32,
 }
 
 impl RenderOptions {
@@ -357,6 +361,9 @@ fn sweep(s: args::SweepArgs) -> SweepOptions {
         out: s.out,
         reference,
         reference_spp: s.reference_spp,
+        targets: s.targets,
+        adaptive_samplers: s.adaptive_samplers.into_iter().map(Into::into).collect(),
+        max_spp: s.max_spp,
     }
 }
 

@@ -79,7 +79,11 @@ pub fn sweep(o: &SweepOptions, threads: usize) -> anyhow::Result<()> {
         samplers: o.samplers.clone(),
         packet_widths: o.packet_widths.clone(),
         seed: o.seed,
+        targets: o.targets.clone(),
+        adaptive_samplers: o.adaptive_samplers.clone(),
+        max_spp: o.max_spp,
     };
+    let own_spp = scene.spp;
     to_stderr!(
         "sweep {}: {}x{}, {threads} threads, {} runs a point; reference {} spp, estimated own RMSE {:.3e}",
         scene.name,
@@ -90,6 +94,21 @@ pub fn sweep(o: &SweepOptions, threads: usize) -> anyhow::Result<()> {
         info.estimated_mse.sqrt()
     );
     let points = run_sweep(&mut scene, &accel, &reference, &plan, &mut |p| {
+        if let Some(a) = p.adaptive {
+            to_stderr!(
+                "  {:<11} x{} target {:.2}%: {:.1} spp  {:>8.4} s ({:.4}–{:.4})  relative RMSE {:.3}%, estimate {:.3}%",
+                series_name(p.sampler, true),
+                p.packet_width,
+                a.target * 100.0,
+                a.spp_mean,
+                p.seconds,
+                p.seconds_min,
+                p.seconds_max,
+                p.rel_rmse() * 100.0,
+                a.estimate * 100.0
+            );
+            return;
+        }
         to_stderr!(
             "  {:<11} x{} {:>5} spp  {:>8.4} s ({:.4}–{:.4})  RMSE {:.4e}  relMSE {:.4e}  PSNR {:.2} dB",
             p.sampler.name(),
@@ -105,7 +124,7 @@ pub fn sweep(o: &SweepOptions, threads: usize) -> anyhow::Result<()> {
     })?;
     let csv = csv(&scene, &info, threads, &points);
     let svg = chart(&scene.name, &points, &info);
-    let summary = summary(&points);
+    let summary = summary(&points) + &own_settings(&points, own_spp);
     // The three files together, all or nothing.
     let mut files = output::OutputSet::default();
     for (path, text) in [(&csv_path, &csv), (&svg_path, &svg), (&txt_path, &summary)] {
@@ -181,6 +200,31 @@ pub fn render_timed(
     let start = Instant::now();
     let r = render::render(scene, accel, &settings, &|| {})?;
     Ok((r.film, start.elapsed().as_secs_f64(), r.counts.total()))
+}
+
+/// Render adaptively to `target` with a sampler and seed on the current rayon pool;
+/// returns the film, the render time in seconds, the rays and the outcome.
+pub fn render_adaptive_timed(
+    scene: &Scene,
+    accel: &Accel,
+    sampler: SamplerKind,
+    seed: u32,
+    adaptive: &raytracer::Adaptive,
+    packet_width: PacketWidth,
+) -> anyhow::Result<(Film, f64, u64, raytracer::Outcome)> {
+    let settings = RenderSettings {
+        seed,
+        sampler,
+        packet_width,
+        ..RenderSettings::default()
+    };
+    let start = Instant::now();
+    let r = render::render_adaptive(scene, accel, &settings, adaptive, &|| {}, &mut |_| {
+        std::ops::ControlFlow::Continue(())
+    })?;
+    let seconds = start.elapsed().as_secs_f64();
+    let outcome = r.adaptive.context("an adaptive render has an outcome")?;
+    Ok((r.film, seconds, r.counts.total(), outcome))
 }
 
 /// Render a reference: the mean of two halves of `spp / 2` samples with different seeds,
@@ -270,6 +314,35 @@ pub struct Point {
     pub seconds_max: f64,
     pub rays: u64,
     pub errors: Errors,
+    /// An adaptive render's target and outcome (`None`: `spp` samples every pixel).
+    pub adaptive: Option<AdaptivePoint>,
+}
+
+/// What an adaptive point of a sweep aimed at and did.
+#[derive(Debug, Clone, Copy)]
+pub struct AdaptivePoint {
+    /// `--target-error`.
+    pub target: f32,
+    /// The run's own estimate of its relative RMSE.
+    pub estimate: f64,
+    /// Samples a pixel, the mean.
+    pub spp_mean: f64,
+}
+
+impl Point {
+    /// The true relative RMSE (against the reference).
+    pub fn rel_rmse(&self) -> f64 {
+        self.errors.rel_mse.sqrt()
+    }
+}
+
+/// The name of a series: the sampler, and whether it samples adaptively.
+fn series_name(sampler: SamplerKind, adaptive: bool) -> String {
+    if adaptive {
+        format!("{} adaptive", sampler.name())
+    } else {
+        sampler.name().to_string()
+    }
 }
 
 /// What to sweep.
@@ -280,6 +353,12 @@ pub struct SweepPlan {
     pub samplers: Vec<SamplerKind>,
     pub packet_widths: Vec<PacketWidth>,
     pub seed: u32,
+    /// Targets of the adaptive series (`--target-error`; none: no adaptive series).
+    pub targets: Vec<f32>,
+    /// Samplers of the adaptive series.
+    pub adaptive_samplers: Vec<SamplerKind>,
+    /// The most samples a pixel of an adaptive render.
+    pub max_spp: u32,
 }
 
 /// spp = 1, 2, 4, …, up to `max` (and `max` itself if it is not a power of two).
@@ -350,15 +429,74 @@ pub fn run_sweep(
                     seconds_max: times[times.len() - 1],
                     rays,
                     errors: metrics::errors(&film, reference),
+                    adaptive: None,
+                };
+                progress(&point);
+                points.push(point);
+            }
+        }
+        for &target in &plan.targets {
+            let adaptive = raytracer::Adaptive::new(Some(target), plan.max_spp, None)?;
+            let samplers = &plan.adaptive_samplers;
+            let mut times = vec![Vec::new(); samplers.len()];
+            let mut firsts = vec![None; samplers.len()];
+            for _ in 0..plan.runs.max(1) {
+                for (i, &sampler) in samplers.iter().enumerate() {
+                    let (film, t, rays, outcome) = render_adaptive_timed(
+                        scene,
+                        accel,
+                        sampler,
+                        plan.seed,
+                        &adaptive,
+                        packet_width,
+                    )?;
+                    times[i].push(t);
+                    if firsts[i].is_none() {
+                        firsts[i] = Some((film, rays, outcome));
+                    }
+                }
+            }
+            for (i, &sampler) in samplers.iter().enumerate() {
+                let times = &mut times[i];
+                times.sort_by(f64::total_cmp);
+                let (film, rays, outcome) = firsts[i].take().expect("at least one run");
+                let point = Point {
+                    sampler,
+                    packet_width,
+                    spp: outcome.spp_mean.round() as u32,
+                    seconds: median(times),
+                    seconds_min: times[0],
+                    seconds_max: times[times.len() - 1],
+                    rays,
+                    errors: metrics::errors(&film, reference),
+                    adaptive: Some(AdaptivePoint {
+                        target,
+                        estimate: outcome.estimate,
+                        spp_mean: outcome.spp_mean,
+                    }),
                 };
                 progress(&point);
                 points.push(point);
             }
         }
     }
-    // Series by series in the CSV: packet width, sampler (in the plan's order), spp.
+    // Series by series in the CSV: packet width, uniform before adaptive, sampler (in
+    // the plan's order), spp or target (the loosest first).
     let order = |k: SamplerKind| plan.samplers.iter().position(|&s| s == k);
-    points.sort_by_key(|p| (p.packet_width, order(p.sampler), p.spp));
+    points.sort_by(|a, b| {
+        let key = |p: &Point| {
+            (
+                p.packet_width,
+                p.adaptive.is_some(),
+                order(p.sampler),
+                p.spp,
+            )
+        };
+        key(a).cmp(&key(b)).then_with(|| {
+            let target = |p: &Point| p.adaptive.map_or(0.0, |a| -a.target);
+            target(a).total_cmp(&target(b))
+        })
+    });
     Ok(points)
 }
 
@@ -385,12 +523,15 @@ pub fn csv(scene: &Scene, reference: &ReferenceInfo, threads: usize, points: &[P
         reference.estimated_mse,
         threads
     );
-    s.push_str("sampler,packet_width,spp,seconds_median,seconds_min,seconds_max,rays,mse,rmse,rel_mse,psnr_db\n");
+    s.push_str("sampler,packet_width,spp,seconds_median,seconds_min,seconds_max,rays,mse,rmse,rel_mse,psnr_db,target_error,estimated_rel_rmse,spp_mean\n");
     for p in points {
         let e = p.errors;
+        let adaptive = p.adaptive.map_or(",,".to_string(), |a| {
+            format!("{},{:.6e},{:.3}", a.target, a.estimate, a.spp_mean)
+        });
         let _ = writeln!(
             s,
-            "{},{},{},{:.6},{:.6},{:.6},{},{:.6e},{:.6e},{:.6e},{:.3}",
+            "{},{},{},{:.6},{:.6},{:.6},{},{:.6e},{:.6e},{:.6e},{:.3},{adaptive}",
             p.sampler.name(),
             p.packet_width,
             p.spp,
@@ -426,7 +567,7 @@ pub fn summary(points: &[Point]) -> String {
         let series = |k: SamplerKind| -> Vec<&Point> {
             points
                 .iter()
-                .filter(|p| p.packet_width == w && p.sampler == k)
+                .filter(|p| p.packet_width == w && p.sampler == k && p.adaptive.is_none())
                 .collect()
         };
         let base = series(SamplerKind::Independent);
@@ -438,7 +579,12 @@ pub fn summary(points: &[Point]) -> String {
         let base_tm = time_mse(&base);
         let mut base_mt: Vec<(f64, f64)> = base_tm.iter().map(|&(t, m)| (m, t)).collect();
         base_mt.sort_by(|a, b| a.0.total_cmp(&b.0));
-        for k in dedup(points.iter().map(|p| p.sampler)) {
+        for k in dedup(
+            points
+                .iter()
+                .filter(|p| p.adaptive.is_none())
+                .map(|p| p.sampler),
+        ) {
             let v = series(k);
             if v.is_empty() {
                 continue;
@@ -489,8 +635,141 @@ pub fn summary(points: &[Point]) -> String {
             }
             s.push('\n');
         }
+        let adaptive_samplers = dedup(
+            points
+                .iter()
+                .filter(|p| p.packet_width == w && p.adaptive.is_some())
+                .map(|p| p.sampler),
+        );
+        for k in adaptive_samplers {
+            let v: Vec<&Point> = points
+                .iter()
+                .filter(|p| p.packet_width == w && p.sampler == k && p.adaptive.is_some())
+                .collect();
+            adaptive_summary(&mut s, w, k, &v, &series);
+        }
     }
     s
+}
+
+/// The lines of an adaptive series: per target the true and estimated relative RMSE and
+/// their ratio, and against uniform series the time to the same relMSE.
+fn adaptive_summary<'a>(
+    s: &mut String,
+    w: PacketWidth,
+    k: SamplerKind,
+    v: &[&'a Point],
+    uniform: &dyn Fn(SamplerKind) -> Vec<&'a Point>,
+) {
+    let _ = write!(s, "width {w} {} ", series_name(k, true));
+    let mut ratios = Vec::new();
+    for p in v {
+        let a = p.adaptive.expect("an adaptive point");
+        let ratio = a.estimate / p.rel_rmse();
+        ratios.push(ratio);
+        let _ = write!(
+            s,
+            "| target {:.2}%: true {:.3}%, estimate {:.3}% ({:.2}x), {:.1} spp ",
+            a.target * 100.0,
+            p.rel_rmse() * 100.0,
+            a.estimate * 100.0,
+            ratio,
+            a.spp_mean
+        );
+    }
+    s.push('\n');
+    // Seconds against relMSE, sorted by relMSE.
+    let by_error = |v: &[&Point]| -> Vec<(f64, f64)> {
+        let mut xy: Vec<(f64, f64)> = v.iter().map(|p| (p.errors.rel_mse, p.seconds)).collect();
+        xy.sort_by(|a, b| a.0.total_cmp(&b.0));
+        xy
+    };
+    for base in [SamplerKind::Independent, k] {
+        let u = uniform(base);
+        if u.is_empty() {
+            continue;
+        }
+        let curve = by_error(&u);
+        let gains: Vec<f64> = v
+            .iter()
+            .filter_map(|p| interpolate_log(&curve, p.errors.rel_mse).map(|l| l.exp() / p.seconds))
+            .collect();
+        let _ = writeln!(
+            s,
+            "width {w} {} vs uniform {}: time shorter at equal relMSE {}",
+            series_name(k, true),
+            base.name(),
+            gain_range(&gains)
+        );
+    }
+}
+
+/// Against the independent sampler at the scene's own samples a pixel: its relMSE and
+/// time (interpolated between the sweep's points), and how much sooner each adaptive
+/// series reaches that relMSE.
+fn own_settings(points: &[Point], own_spp: u32) -> String {
+    let mut s = String::new();
+    for w in dedup(points.iter().map(|p| p.packet_width)) {
+        let base: Vec<&Point> = points
+            .iter()
+            .filter(|p| {
+                p.packet_width == w && p.sampler == SamplerKind::Independent && p.adaptive.is_none()
+            })
+            .collect();
+        let at = |f: fn(&Point) -> f64| {
+            let xy: Vec<(f64, f64)> = base.iter().map(|p| (p.spp as f64, f(p))).collect();
+            interpolate_log(&xy, own_spp as f64).map(f64::exp)
+        };
+        let (Some(error), Some(time)) = (at(|p| p.errors.rel_mse), at(|p| p.seconds)) else {
+            continue;
+        };
+        for k in dedup(
+            points
+                .iter()
+                .filter(|p| p.packet_width == w && p.adaptive.is_some())
+                .map(|p| p.sampler),
+        ) {
+            let mut curve: Vec<(f64, f64)> = points
+                .iter()
+                .filter(|p| p.packet_width == w && p.sampler == k && p.adaptive.is_some())
+                .map(|p| (p.errors.rel_mse, p.seconds))
+                .collect();
+            curve.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let sooner = match interpolate_log(&curve, error) {
+                Some(t) => format!("{:.1}x sooner", time / t.exp()),
+                // Every adaptive point has less error: its fastest is an upper bound.
+                None if curve.last().is_some_and(|&(e, _)| e < error) => format!(
+                    "at least {:.1}x sooner (its loosest target is below that error)",
+                    time / curve.iter().map(|c| c.1).fold(f64::INFINITY, f64::min)
+                ),
+                None => "not within the sweep's targets".to_string(),
+            };
+            let _ = writeln!(
+                s,
+                "width {w} independent at the scene's own {own_spp} spp: relative RMSE {:.3}% in {:.4} s; {} reaches it {sooner}",
+                error.sqrt() * 100.0,
+                time,
+                series_name(k, true)
+            );
+        }
+    }
+    s
+}
+
+/// A list of ratios as its median and range.
+fn gain_range(g: &[f64]) -> String {
+    if g.is_empty() {
+        return "n/a (no overlap)".to_string();
+    }
+    let mut g = g.to_vec();
+    g.sort_by(f64::total_cmp);
+    format!(
+        "median {:.2}x (range {:.2}–{:.2}, {} points)",
+        median(&g),
+        g[0],
+        g[g.len() - 1],
+        g.len()
+    )
 }
 
 fn dedup<T: PartialEq + Copy>(it: impl Iterator<Item = T>) -> Vec<T> {
@@ -619,11 +898,11 @@ fn panel(
         );
     }
     let series = series_keys(points);
-    for (i, &(k, w)) in series.iter().enumerate() {
+    for (i, &(k, adaptive, w)) in series.iter().enumerate() {
         let colour = COLOURS[i % COLOURS.len()];
         let pts: Vec<(f64, f64)> = points
             .iter()
-            .filter(|p| p.sampler == k && p.packet_width == w)
+            .filter(|p| p.sampler == k && p.packet_width == w && p.adaptive.is_some() == adaptive)
             .map(|p| (px(p.seconds), py(value(p))))
             .collect();
         let path: Vec<String> = pts.iter().map(|(x, y)| format!("{x:.1},{y:.1}")).collect();
@@ -641,8 +920,12 @@ fn panel(
     }
 }
 
-fn series_keys(points: &[Point]) -> Vec<(SamplerKind, PacketWidth)> {
-    dedup(points.iter().map(|p| (p.sampler, p.packet_width)))
+fn series_keys(points: &[Point]) -> Vec<(SamplerKind, bool, PacketWidth)> {
+    dedup(
+        points
+            .iter()
+            .map(|p| (p.sampler, p.adaptive.is_some(), p.packet_width)),
+    )
 }
 
 /// The SVG chart of a sweep: RMSE and relMSE against render seconds, log-log, one line
@@ -682,12 +965,12 @@ pub fn chart(title: &str, points: &[Point], reference: &ReferenceInfo) -> String
     let mut x = 80.0;
     let y = ph + 20.0;
     let single_width = dedup(points.iter().map(|p| p.packet_width)).len() == 1;
-    for (i, (k, pw)) in series_keys(points).into_iter().enumerate() {
+    for (i, (k, adaptive, pw)) in series_keys(points).into_iter().enumerate() {
         let colour = COLOURS[i % COLOURS.len()];
         let label = if single_width {
-            k.name().to_string()
+            series_name(k, adaptive)
         } else {
-            format!("{} ×{pw}", k.name())
+            format!("{} ×{pw}", series_name(k, adaptive))
         };
         let _ = writeln!(
             svg,
@@ -700,7 +983,7 @@ pub fn chart(title: &str, points: &[Point], reference: &ReferenceInfo) -> String
     }
     let _ = writeln!(
         svg,
-        r##"<text x="{:.0}" y="{}" font-size="11" fill="#555">points: spp = 1, 2, 4, …; reference {} spp ({})</text>"##,
+        r##"<text x="{:.0}" y="{}" font-size="11" fill="#555">points: spp = 1, 2, 4, … (adaptive: target errors); reference {} spp ({})</text>"##,
         x + 20.0,
         y + 4.0,
         reference.spp,
