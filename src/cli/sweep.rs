@@ -1,13 +1,12 @@
 //! Error against run time: high-spp reference images, and sweeps that
 //! render a scene at spp = 1, 2, 4, …, for each sampler and packet width, time every
 //! render (median of several runs), measure its error against the reference, and write a
-//! CSV and a log-log SVG chart of error against seconds.
-//!
-//! One file of about 720 lines of code: the sweep's rendering, timing, error measures
-//! and its CSV and SVG writers serve one command and share its records.
+//! CSV and a log-log SVG chart of error against seconds (drawn with `plotters`).
 
 use super::options::{ReferenceOptions, SweepOptions};
 use anyhow::{bail, Context};
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use raytracer::accel::{Accel, AccelKind};
 use raytracer::metrics::{self, log_log_slope, Errors};
 use raytracer::output;
@@ -123,7 +122,7 @@ pub fn sweep(o: &SweepOptions, threads: usize) -> anyhow::Result<()> {
         )
     })?;
     let csv = csv(&scene, &info, threads, &points);
-    let svg = chart(&scene.name, &points, &info);
+    let svg = chart(&scene.name, &points, &info)?;
     let summary = summary(&points) + &own_settings(&points, own_spp);
     // The three files together, all or nothing.
     let mut files = output::OutputSet::default();
@@ -783,10 +782,15 @@ fn dedup<T: PartialEq + Copy>(it: impl Iterator<Item = T>) -> Vec<T> {
 }
 
 // ---------------------------------------------------------------------------------------
-// The chart: hand-written SVG, two log-log panels (RMSE and relMSE against seconds).
+// The chart: two log-log panels (RMSE and relMSE against seconds), drawn by `plotters`.
 
-const COLOURS: [&str; 6] = [
-    "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b",
+const COLOURS: [RGBColor; 6] = [
+    RGBColor(0x1f, 0x77, 0xb4),
+    RGBColor(0xd6, 0x27, 0x28),
+    RGBColor(0x2c, 0xa0, 0x2c),
+    RGBColor(0x94, 0x67, 0xbd),
+    RGBColor(0xff, 0x7f, 0x0e),
+    RGBColor(0x8c, 0x56, 0x4b),
 ];
 
 /// Powers of ten covering [lo, hi], and 2 and 5 times them when the range is short.
@@ -805,6 +809,11 @@ fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
     t
 }
 
+/// The charts' font. `plotters` writes a size of s as s / 1.24 in the SVG: the sizes
+/// given here are 1.24 times those drawn (13.5 for 11 px).
+const FONT: &str = "sans-serif";
+
+/// A tick label: plain decimals from 0.001 to 9999, else a power of ten (`1e-5`).
 fn fmt_tick(v: f64) -> String {
     if (1e-3..1e4).contains(&v) {
         let s = format!("{v:.3}");
@@ -814,113 +823,143 @@ fn fmt_tick(v: f64) -> String {
     }
 }
 
-/// One panel at (x0, y0) of size w × h.
-#[allow(clippy::too_many_arguments)]
-fn panel(
-    svg: &mut String,
-    x0: f64,
-    y0: f64,
-    w: f64,
-    h: f64,
-    title: &str,
-    points: &[Point],
+/// What one panel plots: its title, the value of a point, and the level of the
+/// reference's own error in that measure, if it has one.
+struct Panel {
+    title: String,
     value: fn(&Point) -> f64,
     reference_level: Option<f64>,
-) {
-    let xs: Vec<f64> = points.iter().map(|p| p.seconds).collect();
-    let ys: Vec<f64> = points
-        .iter()
-        .map(value)
-        .chain(reference_level)
+}
+
+/// The range of `values` (positive ones) widened by 1.3 each way, for a log axis.
+fn log_bounds(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+    let (lo, hi) = values
         .filter(|v| *v > 0.0)
-        .collect();
-    let bounds = |v: &[f64]| {
-        let lo = v.iter().cloned().fold(f64::INFINITY, f64::min);
-        let hi = v.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-        (lo / 1.3, hi * 1.3)
-    };
-    let (xlo, xhi) = bounds(&xs);
-    let (ylo, yhi) = bounds(&ys);
-    let (ml, mr, mt, mb) = (70.0, 15.0, 30.0, 45.0);
-    let (pw, ph) = (w - ml - mr, h - mt - mb);
-    let px = |x: f64| x0 + ml + pw * (x.ln() - xlo.ln()) / (xhi.ln() - xlo.ln());
-    let py = |y: f64| y0 + mt + ph * (1.0 - (y.ln() - ylo.ln()) / (yhi.ln() - ylo.ln()));
-    let _ = writeln!(
-        svg,
-        r##"<rect x="{:.1}" y="{:.1}" width="{pw:.1}" height="{ph:.1}" fill="none" stroke="#444"/>"##,
-        x0 + ml,
-        y0 + mt
-    );
-    let _ = writeln!(
-        svg,
-        r#"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="14">{title}</text>"#,
-        x0 + ml + pw / 2.0,
-        y0 + 18.0
-    );
-    for t in log_ticks(xlo, xhi) {
-        let x = px(t);
-        let _ = writeln!(
-            svg,
-            r##"<line x1="{x:.1}" y1="{:.1}" x2="{x:.1}" y2="{:.1}" stroke="#ddd"/><text x="{x:.1}" y="{:.1}" text-anchor="middle" font-size="11">{}</text>"##,
-            y0 + mt,
-            y0 + mt + ph,
-            y0 + mt + ph + 15.0,
-            fmt_tick(t)
-        );
-    }
-    for t in log_ticks(ylo, yhi) {
-        let y = py(t);
-        let _ = writeln!(
-            svg,
-            r##"<line x1="{:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#ddd"/><text x="{:.1}" y="{:.1}" text-anchor="end" font-size="11">{}</text>"##,
-            x0 + ml,
-            x0 + ml + pw,
-            x0 + ml - 5.0,
-            y + 4.0,
-            fmt_tick(t)
-        );
-    }
-    let _ = writeln!(
-        svg,
-        r#"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="12">render seconds (median)</text>"#,
-        x0 + ml + pw / 2.0,
-        y0 + h - 8.0
-    );
-    if let Some(r) = reference_level.filter(|r| *r > 0.0) {
-        let y = py(r);
-        let _ = writeln!(
-            svg,
-            r##"<line x1="{:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#888" stroke-dasharray="4 3"/><text x="{:.1}" y="{:.1}" text-anchor="end" font-size="10" fill="#666">reference's own error</text>"##,
-            x0 + ml,
-            x0 + ml + pw,
-            x0 + ml + pw - 4.0,
-            y - 4.0
-        );
-    }
-    let series = series_keys(points);
-    for (i, &(k, adaptive, w)) in series.iter().enumerate() {
-        let colour = COLOURS[i % COLOURS.len()];
-        let pts: Vec<(f64, f64)> = points
-            .iter()
-            .filter(|p| p.sampler == k && p.packet_width == w && p.adaptive.is_some() == adaptive)
-            .map(|p| (px(p.seconds), py(value(p))))
-            .collect();
-        let path: Vec<String> = pts.iter().map(|(x, y)| format!("{x:.1},{y:.1}")).collect();
-        let _ = writeln!(
-            svg,
-            r#"<polyline points="{}" fill="none" stroke="{colour}" stroke-width="1.8"/>"#,
-            path.join(" ")
-        );
-        for (x, y) in pts {
-            let _ = writeln!(
-                svg,
-                r#"<circle cx="{x:.1}" cy="{y:.1}" r="2.8" fill="{colour}"/>"#
-            );
-        }
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    if lo <= hi {
+        lo / 1.3..hi * 1.3
+    } else {
+        0.1..1.0
     }
 }
 
-fn series_keys(points: &[Point]) -> Vec<(SamplerKind, bool, PacketWidth)> {
+/// The label of a series: its name, and the packet width when the sweep has several.
+fn series_label(points: &[Point], (sampler, adaptive, width): SeriesKey) -> String {
+    if dedup(points.iter().map(|p| p.packet_width)).len() == 1 {
+        series_name(sampler, adaptive)
+    } else {
+        format!("{} ×{width}", series_name(sampler, adaptive))
+    }
+}
+
+/// One panel: axes, grid, the reference's level dashed and named, a line and dots per
+/// series.
+fn panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    points: &[Point],
+    panel: &Panel,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let x_range = log_bounds(points.iter().map(|p| p.seconds));
+    let y_range = log_bounds(points.iter().map(panel.value).chain(panel.reference_level));
+    let (x_lo, x_hi) = (x_range.start, x_range.end);
+    let (y_lo, y_hi) = (y_range.start, y_range.end);
+    let x_ticks = log_ticks(x_range.start, x_range.end);
+    let y_ticks = log_ticks(y_range.start, y_range.end);
+    let mut chart = ChartBuilder::on(area)
+        .caption(&panel.title, (FONT, 17.5))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(58)
+        .build_cartesian_2d(
+            x_range.log_scale().with_key_points(x_ticks),
+            y_range.log_scale().with_key_points(y_ticks),
+        )?;
+    chart
+        .configure_mesh()
+        .x_desc("render seconds (median)")
+        .x_label_formatter(&|v| fmt_tick(*v))
+        .y_label_formatter(&|v| fmt_tick(*v))
+        .label_style((FONT, 13.5))
+        .axis_desc_style((FONT, 15))
+        .bold_line_style(RGBColor(0xdd, 0xdd, 0xdd))
+        .draw()?;
+    if let Some(level) = panel.reference_level.filter(|r| *r > 0.0) {
+        let grey = RGBColor(0x88, 0x88, 0x88);
+        chart.draw_series(DashedLineSeries::new(
+            [(x_lo, level), (x_hi, level)],
+            4,
+            3,
+            grey.into(),
+        ))?;
+        let style = (FONT, 12.5)
+            .into_font()
+            .color(&RGBColor(0x66, 0x66, 0x66))
+            .pos(Pos::new(HPos::Right, VPos::Bottom));
+        // Its label a few pixels left of the right edge and above the line: 1% of
+        // the axes' log ranges.
+        chart.draw_series(std::iter::once(Text::new(
+            "reference's own error",
+            (
+                x_hi / (x_hi / x_lo).powf(0.01),
+                level * (y_hi / y_lo).powf(0.012),
+            ),
+            style,
+        )))?;
+    }
+    for (i, (sampler, adaptive, width)) in series_keys(points).into_iter().enumerate() {
+        let colour = COLOURS[i % COLOURS.len()];
+        let xy: Vec<(f64, f64)> = points
+            .iter()
+            .filter(|p| {
+                p.sampler == sampler && p.packet_width == width && p.adaptive.is_some() == adaptive
+            })
+            .map(|p| (p.seconds, (panel.value)(p)))
+            .collect();
+        chart.draw_series(LineSeries::new(xy.iter().copied(), colour.stroke_width(2)))?;
+        chart.draw_series(xy.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
+    }
+    Ok(())
+}
+
+/// The legend under the panels, where it hides no point: each series' colour and label,
+/// then what the points are.
+fn legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    points: &[Point],
+    reference: &ReferenceInfo,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let left = Pos::new(HPos::Left, VPos::Center);
+    let y = 14;
+    let mut x = 80;
+    for (i, key) in series_keys(points).into_iter().enumerate() {
+        let colour = COLOURS[i % COLOURS.len()];
+        let label = series_label(points, key);
+        area.draw(&PathElement::new(
+            [(x, y), (x + 22, y)],
+            colour.stroke_width(3),
+        ))?;
+        let width = 40 + 8 * label.chars().count() as i32;
+        let style = (FONT, 15).into_font().color(&BLACK).pos(left);
+        area.draw(&Text::new(label, (x + 28, y), style))?;
+        x += width;
+    }
+    let note = format!(
+        "points: spp = 1, 2, 4, … (adaptive: target errors); reference {} spp ({})",
+        reference.spp, reference.sampler
+    );
+    let style = (FONT, 13.5)
+        .into_font()
+        .color(&RGBColor(0x55, 0x55, 0x55))
+        .pos(left);
+    area.draw(&Text::new(note, (80, y + 20), style))
+}
+
+/// A series: its sampler, whether it samples adaptively, its packet width.
+type SeriesKey = (SamplerKind, bool, PacketWidth);
+
+fn series_keys(points: &[Point]) -> Vec<SeriesKey> {
     dedup(
         points
             .iter()
@@ -930,67 +969,34 @@ fn series_keys(points: &[Point]) -> Vec<(SamplerKind, bool, PacketWidth)> {
 
 /// The SVG chart of a sweep: RMSE and relMSE against render seconds, log-log, one line
 /// per sampler and packet width, points at spp = 1, 2, 4, …
-pub fn chart(title: &str, points: &[Point], reference: &ReferenceInfo) -> String {
-    let (pw, ph) = (460.0, 340.0);
-    let (w, h) = (2.0 * pw, ph + 40.0);
+pub fn chart(title: &str, points: &[Point], reference: &ReferenceInfo) -> anyhow::Result<String> {
     let mut svg = String::new();
-    let _ = writeln!(
-        svg,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif">"#
-    );
-    let _ = writeln!(svg, r#"<rect width="100%" height="100%" fill="white"/>"#);
-    panel(
-        &mut svg,
-        0.0,
-        0.0,
-        pw,
-        ph,
-        &format!("{title}: RMSE against time"),
-        points,
-        |p| p.errors.rmse,
-        Some(reference.estimated_mse.sqrt()),
-    );
-    panel(
-        &mut svg,
-        pw,
-        0.0,
-        pw,
-        ph,
-        &format!("{title}: relMSE against time"),
-        points,
-        |p| p.errors.rel_mse,
-        None,
-    );
-    // Legend under the panels.
-    let mut x = 80.0;
-    let y = ph + 20.0;
-    let single_width = dedup(points.iter().map(|p| p.packet_width)).len() == 1;
-    for (i, (k, adaptive, pw)) in series_keys(points).into_iter().enumerate() {
-        let colour = COLOURS[i % COLOURS.len()];
-        let label = if single_width {
-            series_name(k, adaptive)
-        } else {
-            format!("{} ×{pw}", series_name(k, adaptive))
-        };
-        let _ = writeln!(
-            svg,
-            r#"<line x1="{x}" y1="{y}" x2="{}" y2="{y}" stroke="{colour}" stroke-width="3"/><text x="{}" y="{}" font-size="12">{label}</text>"#,
-            x + 22.0,
-            x + 28.0,
-            y + 4.0
-        );
-        x += 40.0 + 8.0 * label.len() as f64;
-    }
-    let _ = writeln!(
-        svg,
-        r##"<text x="{:.0}" y="{}" font-size="11" fill="#555">points: spp = 1, 2, 4, … (adaptive: target errors); reference {} spp ({})</text>"##,
-        x + 20.0,
-        y + 4.0,
-        reference.spp,
-        reference.sampler
-    );
-    svg.push_str("</svg>\n");
-    svg
+    let drawn = (|| {
+        let root = SVGBackend::with_string(&mut svg, (920, 390)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let (panels, note) = root.split_vertically(340);
+        let halves = panels.split_evenly((1, 2));
+        let measures = [
+            Panel {
+                title: format!("{title}: RMSE against time"),
+                value: |p| p.errors.rmse,
+                reference_level: Some(reference.estimated_mse.sqrt()),
+            },
+            Panel {
+                title: format!("{title}: relMSE against time"),
+                value: |p| p.errors.rel_mse,
+                reference_level: None,
+            },
+        ];
+        for (area, measure) in halves.iter().zip(&measures) {
+            panel(area, points, measure)?;
+        }
+        legend(&note, points, reference)?;
+        root.present()
+    })();
+    drawn.map_err(|e| anyhow::anyhow!("cannot draw the chart: {e}"))?;
+    svg.push('\n');
+    Ok(svg)
 }
 
 #[cfg(test)]
@@ -1002,6 +1008,92 @@ mod tests {
         assert_eq!(spp_steps(1), vec![1]);
         assert_eq!(spp_steps(8), vec![1, 2, 4, 8]);
         assert_eq!(spp_steps(10), vec![1, 2, 4, 8, 10]);
+    }
+
+    fn point(sampler: SamplerKind, packet_width: PacketWidth, spp: u32, rmse: f64) -> Point {
+        Point {
+            sampler,
+            packet_width,
+            spp,
+            seconds: 0.01 * spp as f64,
+            seconds_min: 0.01 * spp as f64,
+            seconds_max: 0.01 * spp as f64,
+            rays: 1000 * spp as u64,
+            errors: Errors {
+                mse: rmse * rmse,
+                rmse,
+                rel_mse: 10.0 * rmse * rmse,
+                psnr: -10.0 * (rmse * rmse).log10(),
+            },
+            adaptive: None,
+        }
+    }
+
+    fn reference() -> ReferenceInfo {
+        ReferenceInfo {
+            scene: "test".into(),
+            width: 8,
+            height: 8,
+            spp: 64,
+            sampler: "sobol".into(),
+            seeds: REFERENCE_SEEDS,
+            estimated_mse: 1e-6,
+            seconds: 1.0,
+        }
+    }
+
+    /// Every series and its label, the reference's level, the tick labels of both axes.
+    #[test]
+    fn the_chart_holds_every_series() {
+        let mut points = Vec::new();
+        for (k, sampler) in [SamplerKind::Independent, SamplerKind::Sobol]
+            .into_iter()
+            .enumerate()
+        {
+            for width in [PacketWidth::Four, PacketWidth::Eight] {
+                for spp in [1, 2, 4, 8] {
+                    let rmse = 0.1 / (spp as f64).powf(0.5 + k as f64 * 0.25);
+                    points.push(point(sampler, width, spp, rmse));
+                }
+            }
+        }
+        // An adaptive series beside the uniform ones: its own line and label.
+        for target in [0.1, 0.05] {
+            let mut p = point(
+                SamplerKind::Sobol,
+                PacketWidth::Eight,
+                3,
+                target as f64 / 3.0,
+            );
+            p.adaptive = Some(AdaptivePoint {
+                target,
+                estimate: target as f64,
+                spp_mean: 3.0,
+            });
+            points.push(p);
+        }
+        let svg = chart("test", &points, &reference()).unwrap();
+        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+        let labels = ["independent ×4", "independent ×8", "sobol ×4", "sobol ×8"];
+        for label in labels.into_iter().chain(["sobol adaptive ×8"]) {
+            let entry = format!(">\n{label}\n<");
+            assert_eq!(svg.matches(&entry).count(), 1, "{label}: one legend entry");
+        }
+        assert!(svg.contains("own error"), "the reference's level");
+        assert!(svg.contains("reference 64 spp (sobol)"), "the note");
+        assert!(svg.contains("test: RMSE against time") && svg.contains("test: relMSE"));
+        for tick in ["0.001", "0.01", "0.1"] {
+            assert!(svg.contains(&format!(">\n{tick}\n<")), "tick {tick}");
+        }
+        // One series of one width is labelled by its sampler alone; an error of 0 (no
+        // point on a log axis) still draws.
+        let one = [
+            point(SamplerKind::Sobol, PacketWidth::Eight, 1, 0.1),
+            point(SamplerKind::Sobol, PacketWidth::Eight, 2, 0.0),
+        ];
+        let svg = chart("test", &one, &reference()).unwrap();
+        assert!(svg.contains(">\nsobol\n<"), "{svg}");
+        assert!(!svg.contains("NaN") && !svg.contains("inf"), "{svg}");
     }
 
     #[test]
