@@ -1,7 +1,7 @@
 //! The command line, in the binary only (the library knows nothing of it): `args` (clap's
 //! flags) → `options` (validated, defaults filled in) → `render`, `merge` or `sweep` (the
 //! run), with the `report` (JSON) and `stats` printers apart; a render's record, which
-//! both print, is `run`.
+//! both print, is `run`, and the sweep's chart is drawn by `chart`.
 //!
 //! Messages on stderr (notes, warnings, statistics, the summary line, errors) are best
 //! effort: a closed or full stderr never fails a run whose files are written. What a
@@ -18,6 +18,7 @@ macro_rules! to_stderr {
 }
 
 pub mod args;
+pub mod chart;
 pub mod merge;
 pub mod options;
 pub mod render;

@@ -5,8 +5,6 @@
 
 use super::options::{ReferenceOptions, SweepOptions};
 use anyhow::{bail, Context};
-use plotters::prelude::*;
-use plotters::style::text_anchor::{HPos, Pos, VPos};
 use raytracer::accel::{Accel, AccelKind};
 use raytracer::metrics::{self, log_log_slope, Errors};
 use raytracer::output;
@@ -782,179 +780,7 @@ fn dedup<T: PartialEq + Copy>(it: impl Iterator<Item = T>) -> Vec<T> {
 }
 
 // ---------------------------------------------------------------------------------------
-// The chart: two log-log panels (RMSE and relMSE against seconds), drawn by `plotters`.
-
-const COLOURS: [RGBColor; 6] = [
-    RGBColor(0x1f, 0x77, 0xb4),
-    RGBColor(0xd6, 0x27, 0x28),
-    RGBColor(0x2c, 0xa0, 0x2c),
-    RGBColor(0x94, 0x67, 0xbd),
-    RGBColor(0xff, 0x7f, 0x0e),
-    RGBColor(0x8c, 0x56, 0x4b),
-];
-
-/// Powers of ten covering [lo, hi], and 2 and 5 times them when the range is short.
-fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
-    let (a, b) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
-    let mults: &[f64] = if b - a <= 2 { &[1.0, 2.0, 5.0] } else { &[1.0] };
-    let mut t = Vec::new();
-    for e in a..=b {
-        for m in mults {
-            let v = m * 10f64.powi(e);
-            if v >= lo * 0.999 && v <= hi * 1.001 {
-                t.push(v);
-            }
-        }
-    }
-    t
-}
-
-/// The charts' font. `plotters` writes a size of s as s / 1.24 in the SVG: the sizes
-/// given here are 1.24 times those drawn (13.5 for 11 px).
-const FONT: &str = "sans-serif";
-
-/// A tick label: plain decimals from 0.001 to 9999, else a power of ten (`1e-5`).
-fn fmt_tick(v: f64) -> String {
-    if (1e-3..1e4).contains(&v) {
-        let s = format!("{v:.3}");
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        format!("{v:.0e}")
-    }
-}
-
-/// What one panel plots: its title, the value of a point, and the level of the
-/// reference's own error in that measure, if it has one.
-struct Panel {
-    title: String,
-    value: fn(&Point) -> f64,
-    reference_level: Option<f64>,
-}
-
-/// The range of `values` (positive ones) widened by 1.3 each way, for a log axis.
-fn log_bounds(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
-    let (lo, hi) = values
-        .filter(|v| *v > 0.0)
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-            (lo.min(v), hi.max(v))
-        });
-    if lo <= hi {
-        lo / 1.3..hi * 1.3
-    } else {
-        0.1..1.0
-    }
-}
-
-/// The label of a series: its name, and the packet width when the sweep has several.
-fn series_label(points: &[Point], (sampler, adaptive, width): SeriesKey) -> String {
-    if dedup(points.iter().map(|p| p.packet_width)).len() == 1 {
-        series_name(sampler, adaptive)
-    } else {
-        format!("{} ×{width}", series_name(sampler, adaptive))
-    }
-}
-
-/// One panel: axes, grid, the reference's level dashed and named, a line and dots per
-/// series.
-fn panel<DB: DrawingBackend>(
-    area: &DrawingArea<DB, plotters::coord::Shift>,
-    points: &[Point],
-    panel: &Panel,
-) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
-    let x_range = log_bounds(points.iter().map(|p| p.seconds));
-    let y_range = log_bounds(points.iter().map(panel.value).chain(panel.reference_level));
-    let (x_lo, x_hi) = (x_range.start, x_range.end);
-    let (y_lo, y_hi) = (y_range.start, y_range.end);
-    let x_ticks = log_ticks(x_range.start, x_range.end);
-    let y_ticks = log_ticks(y_range.start, y_range.end);
-    let mut chart = ChartBuilder::on(area)
-        .caption(&panel.title, (FONT, 17.5))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(58)
-        .build_cartesian_2d(
-            x_range.log_scale().with_key_points(x_ticks),
-            y_range.log_scale().with_key_points(y_ticks),
-        )?;
-    chart
-        .configure_mesh()
-        .x_desc("render seconds (median)")
-        .x_label_formatter(&|v| fmt_tick(*v))
-        .y_label_formatter(&|v| fmt_tick(*v))
-        .label_style((FONT, 13.5))
-        .axis_desc_style((FONT, 15))
-        .bold_line_style(RGBColor(0xdd, 0xdd, 0xdd))
-        .draw()?;
-    if let Some(level) = panel.reference_level.filter(|r| *r > 0.0) {
-        let grey = RGBColor(0x88, 0x88, 0x88);
-        chart.draw_series(DashedLineSeries::new(
-            [(x_lo, level), (x_hi, level)],
-            4,
-            3,
-            grey.into(),
-        ))?;
-        let style = (FONT, 12.5)
-            .into_font()
-            .color(&RGBColor(0x66, 0x66, 0x66))
-            .pos(Pos::new(HPos::Right, VPos::Bottom));
-        // Its label a few pixels left of the right edge and above the line: 1% of
-        // the axes' log ranges.
-        chart.draw_series(std::iter::once(Text::new(
-            "reference's own error",
-            (
-                x_hi / (x_hi / x_lo).powf(0.01),
-                level * (y_hi / y_lo).powf(0.012),
-            ),
-            style,
-        )))?;
-    }
-    for (i, (sampler, adaptive, width)) in series_keys(points).into_iter().enumerate() {
-        let colour = COLOURS[i % COLOURS.len()];
-        let xy: Vec<(f64, f64)> = points
-            .iter()
-            .filter(|p| {
-                p.sampler == sampler && p.packet_width == width && p.adaptive.is_some() == adaptive
-            })
-            .map(|p| (p.seconds, (panel.value)(p)))
-            .collect();
-        chart.draw_series(LineSeries::new(xy.iter().copied(), colour.stroke_width(2)))?;
-        chart.draw_series(xy.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
-    }
-    Ok(())
-}
-
-/// The legend under the panels, where it hides no point: each series' colour and label,
-/// then what the points are.
-fn legend<DB: DrawingBackend>(
-    area: &DrawingArea<DB, plotters::coord::Shift>,
-    points: &[Point],
-    reference: &ReferenceInfo,
-) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
-    let left = Pos::new(HPos::Left, VPos::Center);
-    let y = 14;
-    let mut x = 80;
-    for (i, key) in series_keys(points).into_iter().enumerate() {
-        let colour = COLOURS[i % COLOURS.len()];
-        let label = series_label(points, key);
-        area.draw(&PathElement::new(
-            [(x, y), (x + 22, y)],
-            colour.stroke_width(3),
-        ))?;
-        let width = 40 + 8 * label.chars().count() as i32;
-        let style = (FONT, 15).into_font().color(&BLACK).pos(left);
-        area.draw(&Text::new(label, (x + 28, y), style))?;
-        x += width;
-    }
-    let note = format!(
-        "points: spp = 1, 2, 4, … (adaptive: target errors); reference {} spp ({})",
-        reference.spp, reference.sampler
-    );
-    let style = (FONT, 13.5)
-        .into_font()
-        .color(&RGBColor(0x55, 0x55, 0x55))
-        .pos(left);
-    area.draw(&Text::new(note, (80, y + 20), style))
-}
+// The chart: its series (`chart` draws them).
 
 /// A series: its sampler, whether it samples adaptively, its packet width.
 type SeriesKey = (SamplerKind, bool, PacketWidth);
@@ -967,36 +793,43 @@ fn series_keys(points: &[Point]) -> Vec<SeriesKey> {
     )
 }
 
+/// The label of a series: its name, and the packet width when the sweep has several.
+fn series_label(points: &[Point], (sampler, adaptive, width): SeriesKey) -> String {
+    if dedup(points.iter().map(|p| p.packet_width)).len() == 1 {
+        series_name(sampler, adaptive)
+    } else {
+        format!("{} ×{width}", series_name(sampler, adaptive))
+    }
+}
+
 /// The SVG chart of a sweep: RMSE and relMSE against render seconds, log-log, one line
-/// per sampler and packet width, points at spp = 1, 2, 4, …
+/// per series (sampler, uniform or adaptive, and packet width), points at spp = 1, 2,
+/// 4, … or at the adaptive series' targets.
 pub fn chart(title: &str, points: &[Point], reference: &ReferenceInfo) -> anyhow::Result<String> {
-    let mut svg = String::new();
-    let drawn = (|| {
-        let root = SVGBackend::with_string(&mut svg, (920, 390)).into_drawing_area();
-        root.fill(&WHITE)?;
-        let (panels, note) = root.split_vertically(340);
-        let halves = panels.split_evenly((1, 2));
-        let measures = [
-            Panel {
-                title: format!("{title}: RMSE against time"),
-                value: |p| p.errors.rmse,
-                reference_level: Some(reference.estimated_mse.sqrt()),
-            },
-            Panel {
-                title: format!("{title}: relMSE against time"),
-                value: |p| p.errors.rel_mse,
-                reference_level: None,
-            },
-        ];
-        for (area, measure) in halves.iter().zip(&measures) {
-            panel(area, points, measure)?;
-        }
-        legend(&note, points, reference)?;
-        root.present()
-    })();
-    drawn.map_err(|e| anyhow::anyhow!("cannot draw the chart: {e}"))?;
-    svg.push('\n');
-    Ok(svg)
+    let series: Vec<super::chart::Series> = series_keys(points)
+        .into_iter()
+        .map(|key @ (sampler, adaptive, width)| super::chart::Series {
+            label: series_label(points, key),
+            points: points
+                .iter()
+                .filter(|p| {
+                    p.sampler == sampler
+                        && p.packet_width == width
+                        && p.adaptive.is_some() == adaptive
+                })
+                .map(|p| [p.seconds, p.errors.rmse, p.errors.rel_mse])
+                .collect(),
+        })
+        .collect();
+    super::chart::svg(&super::chart::Chart {
+        title,
+        series: &series,
+        reference_rmse: reference.estimated_mse.sqrt(),
+        note: format!(
+            "points: spp = 1, 2, 4, … (adaptive: target errors); reference {} spp ({})",
+            reference.spp, reference.sampler
+        ),
+    })
 }
 
 #[cfg(test)]
@@ -1010,90 +843,48 @@ mod tests {
         assert_eq!(spp_steps(10), vec![1, 2, 4, 8, 10]);
     }
 
-    fn point(sampler: SamplerKind, packet_width: PacketWidth, spp: u32, rmse: f64) -> Point {
-        Point {
+    /// The chart's series: one per sampler, uniform or adaptive, and width, labelled with
+    /// the width only when the sweep has several.
+    #[test]
+    fn series_and_their_labels() {
+        let point = |sampler, packet_width, adaptive: Option<f32>| Point {
             sampler,
             packet_width,
-            spp,
-            seconds: 0.01 * spp as f64,
-            seconds_min: 0.01 * spp as f64,
-            seconds_max: 0.01 * spp as f64,
-            rays: 1000 * spp as u64,
+            spp: 1,
+            seconds: 0.1,
+            seconds_min: 0.1,
+            seconds_max: 0.1,
+            rays: 1,
             errors: Errors {
-                mse: rmse * rmse,
-                rmse,
-                rel_mse: 10.0 * rmse * rmse,
-                psnr: -10.0 * (rmse * rmse).log10(),
+                mse: 0.01,
+                rmse: 0.1,
+                rel_mse: 0.1,
+                psnr: 20.0,
             },
-            adaptive: None,
-        }
-    }
-
-    fn reference() -> ReferenceInfo {
-        ReferenceInfo {
-            scene: "test".into(),
-            width: 8,
-            height: 8,
-            spp: 64,
-            sampler: "sobol".into(),
-            seeds: REFERENCE_SEEDS,
-            estimated_mse: 1e-6,
-            seconds: 1.0,
-        }
-    }
-
-    /// Every series and its label, the reference's level, the tick labels of both axes.
-    #[test]
-    fn the_chart_holds_every_series() {
-        let mut points = Vec::new();
-        for (k, sampler) in [SamplerKind::Independent, SamplerKind::Sobol]
-            .into_iter()
-            .enumerate()
-        {
-            for width in [PacketWidth::Four, PacketWidth::Eight] {
-                for spp in [1, 2, 4, 8] {
-                    let rmse = 0.1 / (spp as f64).powf(0.5 + k as f64 * 0.25);
-                    points.push(point(sampler, width, spp, rmse));
-                }
-            }
-        }
-        // An adaptive series beside the uniform ones: its own line and label.
-        for target in [0.1, 0.05] {
-            let mut p = point(
-                SamplerKind::Sobol,
-                PacketWidth::Eight,
-                3,
-                target as f64 / 3.0,
-            );
-            p.adaptive = Some(AdaptivePoint {
+            adaptive: adaptive.map(|target| AdaptivePoint {
                 target,
                 estimate: target as f64,
-                spp_mean: 3.0,
-            });
-            points.push(p);
-        }
-        let svg = chart("test", &points, &reference()).unwrap();
-        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
-        let labels = ["independent ×4", "independent ×8", "sobol ×4", "sobol ×8"];
-        for label in labels.into_iter().chain(["sobol adaptive ×8"]) {
-            let entry = format!(">\n{label}\n<");
-            assert_eq!(svg.matches(&entry).count(), 1, "{label}: one legend entry");
-        }
-        assert!(svg.contains("own error"), "the reference's level");
-        assert!(svg.contains("reference 64 spp (sobol)"), "the note");
-        assert!(svg.contains("test: RMSE against time") && svg.contains("test: relMSE"));
-        for tick in ["0.001", "0.01", "0.1"] {
-            assert!(svg.contains(&format!(">\n{tick}\n<")), "tick {tick}");
-        }
-        // One series of one width is labelled by its sampler alone; an error of 0 (no
-        // point on a log axis) still draws.
-        let one = [
-            point(SamplerKind::Sobol, PacketWidth::Eight, 1, 0.1),
-            point(SamplerKind::Sobol, PacketWidth::Eight, 2, 0.0),
+                spp_mean: 1.0,
+            }),
+        };
+        let (sobol, four, eight) = (SamplerKind::Sobol, PacketWidth::Four, PacketWidth::Eight);
+        let points = [
+            point(sobol, four, None),
+            point(sobol, eight, None),
+            point(sobol, eight, Some(0.1)),
+            point(sobol, eight, Some(0.05)),
         ];
-        let svg = chart("test", &one, &reference()).unwrap();
-        assert!(svg.contains(">\nsobol\n<"), "{svg}");
-        assert!(!svg.contains("NaN") && !svg.contains("inf"), "{svg}");
+        let labels: Vec<String> = series_keys(&points)
+            .into_iter()
+            .map(|key| series_label(&points, key))
+            .collect();
+        assert_eq!(labels, ["sobol ×4", "sobol ×8", "sobol adaptive ×8"]);
+        let one = [point(sobol, eight, None), point(sobol, eight, Some(0.1))];
+        let labels: Vec<String> = series_keys(&one)
+            .into_iter()
+            .map(|key| series_label(&one, key))
+            .collect();
+        assert_eq!(labels, ["sobol", "sobol adaptive"]);
     }
 
     #[test]
