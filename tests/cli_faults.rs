@@ -199,6 +199,34 @@ fn standard_output_closed_or_full() {
     }
 }
 
+/// `-o -` on a terminal is refused before the render (the image's bytes would garble
+/// it), and writes nothing. The terminal is `script`'s.
+#[test]
+fn image_to_a_terminal_is_refused() {
+    if !has_tool("script") {
+        eprintln!("skipped: no script(1) here");
+        return;
+    }
+    let dir = TempDir::new().unwrap();
+    let out = Command::new("script")
+        .args([
+            "-qec",
+            &format!("{BIN} spheres --width 8 -o -"),
+            "/dev/null",
+        ])
+        .current_dir(dir.path())
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(2), "{text}");
+    assert!(
+        text.contains("-o -: standard output is a terminal"),
+        "{text}"
+    );
+    assert_eq!(names(dir.path()), Vec::<String>::new());
+}
+
 #[test]
 fn a_full_stderr_does_not_fail_a_render() {
     let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") else {
