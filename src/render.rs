@@ -235,6 +235,10 @@ fn render_rects(
 /// What an adaptive render calls after each pass: `Break` ends the render there.
 pub type OnPass<'a> = dyn FnMut(&PassProgress) -> ControlFlow<()> + 'a;
 
+/// Rows of a band, the work item of an adaptive pass after the first: a multiple of the
+/// packets' footprints (2 rows), a quarter of a tile.
+const BAND: u32 = 4;
+
 fn render_rects_adaptive(
     scene: &Scene,
     accel: &Accel,
@@ -333,8 +337,26 @@ fn render_rects_adaptive(
             break Stop::Passes;
         }
         pass += 1;
-        tiles.par_iter_mut().filter(|t| takes(t)).for_each(|t| {
-            extend(t, (2 * t.n).min(max));
+        // A late pass has few tiles: each tile's rows go in bands of `BAND` rows, one
+        // work item a band, so that threads do not wait for the few (a band's pixels are
+        // its own, and each pixel's samples are added in the same order).
+        let mut pass_tiles: Vec<&mut TileSums> = tiles.iter_mut().filter(|t| takes(t)).collect();
+        pass_tiles.par_iter_mut().for_each(|t| {
+            let n = (2 * t.n).min(max);
+            t.start_step();
+            let (tile, from) = (t.tile, t.n);
+            let rows = BAND as usize * tile.width() as usize;
+            let counts = t
+                .sums
+                .par_chunks_mut(rows)
+                .enumerate()
+                .map(|(k, sums)| {
+                    let y0 = tile.y0 + k as u32 * BAND;
+                    let band = Rect::new(tile.x0, y0, tile.x1, (y0 + BAND).min(tile.y1));
+                    accumulate_tile(tracer, settings.packet_width, band, from..n, sums)
+                })
+                .reduce(RayCounts::default, sum_counts);
+            t.end_step(n, &counts, kind);
             on_tile();
         });
         samples = next_samples;
