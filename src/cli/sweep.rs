@@ -675,28 +675,42 @@ fn adaptive_summary<'a>(
         );
     }
     s.push('\n');
-    // Seconds against relMSE, sorted by relMSE.
-    let by_error = |v: &[&Point]| -> Vec<(f64, f64)> {
-        let mut xy: Vec<(f64, f64)> = v.iter().map(|p| (p.errors.rel_mse, p.seconds)).collect();
-        xy.sort_by(|a, b| a.0.total_cmp(&b.0));
-        xy
-    };
     for base in [SamplerKind::Independent, k] {
         let u = uniform(base);
         if u.is_empty() {
             continue;
         }
-        let curve = by_error(&u);
-        let gains: Vec<f64> = v
+        // The uniform series' seconds and rays at each adaptive point's relMSE, over the
+        // adaptive point's: how much sooner, and with how much less work.
+        let at_error = |f: fn(&Point) -> f64| -> Vec<Option<f64>> {
+            let mut xy: Vec<(f64, f64)> = u.iter().map(|p| (p.errors.rel_mse, f(p))).collect();
+            xy.sort_by(|a, b| a.0.total_cmp(&b.0));
+            v.iter()
+                .map(|p| interpolate_log(&xy, p.errors.rel_mse).map(|l| l.exp() / f(p)))
+                .collect()
+        };
+        let times = at_error(|p| p.seconds);
+        let rays = at_error(|p| p.rays as f64);
+        let per_target: Vec<String> = v
             .iter()
-            .filter_map(|p| interpolate_log(&curve, p.errors.rel_mse).map(|l| l.exp() / p.seconds))
+            .zip(times.iter().zip(&rays))
+            .filter_map(|(p, (t, r))| {
+                Some(format!(
+                    "{:.2}%: {:.2}x, rays {:.2}x",
+                    p.adaptive?.target * 100.0,
+                    (*t)?,
+                    (*r)?
+                ))
+            })
             .collect();
         let _ = writeln!(
             s,
-            "width {w} {} vs uniform {}: time shorter at equal relMSE {}",
+            "width {w} {} vs uniform {}: time shorter at equal relMSE {}; rays fewer {} [{}]",
             series_name(k, true),
             base.name(),
-            gain_range(&gains)
+            gain_range(&times.iter().flatten().copied().collect::<Vec<_>>()),
+            gain_range(&rays.iter().flatten().copied().collect::<Vec<_>>()),
+            per_target.join("; ")
         );
     }
 }
