@@ -30,6 +30,9 @@
 //! [`SceneFile::builtin`] loads the scenes the `raytracer` command knows by name, and
 //! [`SceneOptions`] replaces a scene's width, samples per pixel or depth.
 //! [`Renderer::render`] runs on the current rayon thread pool.
+//! [`Renderer::render_adaptive`] renders to an error instead of a sample count
+//! ([`Adaptive`]): passes that give more samples to the tiles whose estimated error is
+//! still above the target.
 //!
 //! A frame can be farmed out: [`Renderer::render_part`] renders one [`Region`] of it (part
 //! I of N, or a crop window) into a [`Part`], written as a part file anywhere, and
