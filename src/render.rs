@@ -8,8 +8,8 @@ use crate::adaptive::{self, Adaptive, Outcome, PassProgress, Stop, TileSums, FIR
 use crate::error::{Error, Result};
 use crate::farm::region::{Rect, Region, TILE};
 pub use crate::film::Film;
-use crate::integrator::{footprint, RayCounts, Tracer};
-use crate::lanes::{Lane, V3};
+use crate::integrator::{footprint, PacketPixels, RayCounts, Regrouping, Tracer};
+use crate::lanes::{set_lanes, Lane, V3};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 pub use crate::settings::{PacketWidth, RenderSettings};
@@ -430,6 +430,12 @@ pub(crate) fn accumulate_tile(
     sums: &mut [Vec3],
 ) -> RayCounts {
     match packet_width {
+        PacketWidth::Eight if tracer.regroups::<f32x8>() => {
+            accumulate_tile_regrouped::<f32x8>(tracer, tile, samples, sums)
+        }
+        PacketWidth::Four if tracer.regroups::<Vec4>() => {
+            accumulate_tile_regrouped::<Vec4>(tracer, tile, samples, sums)
+        }
         PacketWidth::Eight => accumulate_tile_packets::<f32x8>(tracer, tile, samples, sums),
         PacketWidth::Four => accumulate_tile_packets::<Vec4>(tracer, tile, samples, sums),
         PacketWidth::Scalar => accumulate_tile_scalar(tracer, tile, samples, sums),
@@ -508,6 +514,85 @@ fn accumulate_tile_packets<L: Lane>(
                     sums[at(k)] = lanes.lane(k as usize);
                 }
             }
+        }
+    }
+    counts
+}
+
+/// `accumulate_tile_packets` for a scene whose surfaces are all path-traced: the
+/// tile's packets traced together, one sample index at a time, their paths regrouped
+/// after each vertex (`Tracer::sample_tile`). Each pixel sums its samples in sample
+/// order.
+fn accumulate_tile_regrouped<L: Lane>(
+    tracer: &Tracer,
+    tile: Rect,
+    samples: std::ops::Range<u32>,
+    sums: &mut [Vec3],
+) -> RayCounts {
+    let Rect { x0, y0, x1, y1 } = tile;
+    let mut counts = RayCounts::default();
+    let cull = tracer.camera_cull(x0, y0, x1, y1);
+    let (fw, fh) = footprint(L::WIDTH);
+    let stride = tile.width() as usize;
+    let taken = samples.len() as u64;
+    let (cone_prims, cone_tree) = cull.skipped(tracer.accel);
+    let at = |px: u32, py: u32, k: usize| {
+        let (x, y) = (px + k as u32 % fw, py + k as u32 / fw);
+        (y - y0) as usize * stride + (x - x0) as usize
+    };
+    let mut packets = Vec::new();
+    let mut lanes = Vec::new();
+    for py in (y0..y1).step_by(fh as usize) {
+        for px in (x0..x1).step_by(fw as usize) {
+            let mut active = 0u32;
+            for k in 0..L::WIDTH as u32 {
+                let (x, y) = (px + k % fw, py + k / fw);
+                if x < x1 && y < y1 {
+                    active |= 1 << k;
+                }
+            }
+            let pixels = tracer.pixel_hashes::<L>(px, py);
+            packets.push(PacketPixels {
+                x0: px,
+                y0: py,
+                pixels,
+                active,
+            });
+            lanes.push(V3::<L>::from_fn(|k| {
+                if active >> k & 1 != 0 {
+                    sums[at(px, py, k)]
+                } else {
+                    Vec3::ZERO
+                }
+            }));
+            counts.cone_prims += cone_prims * active.count_ones() as u64 * taken;
+            counts.cone_trees += cone_tree as u64 * taken;
+        }
+    }
+    let mut colors = vec![V3::<L>::splat(Vec3::ZERO); packets.len()];
+    let mut work = Regrouping::<L>::default();
+    // The first sample decides whether the others regroup (`Regrouped::pays`); they are
+    // added after it, so each pixel still sums its samples in sample order.
+    let mut regroup = true;
+    for s in samples.clone() {
+        if !regroup {
+            for (p, sum) in packets.iter().zip(lanes.iter_mut()) {
+                for s in s..samples.end {
+                    let (x, y, c) = (p.x0, p.y0, &mut counts);
+                    *sum = *sum + tracer.sample_pixels(x, y, &p.pixels, p.active, s, cull, c);
+                }
+            }
+            break;
+        }
+        let saved = tracer.sample_tile(&packets, s, cull, &mut colors, &mut work, &mut counts);
+        for (sum, c) in lanes.iter_mut().zip(&colors) {
+            *sum = *sum + *c;
+        }
+        regroup = saved.pays();
+    }
+    for (p, sum) in packets.iter().zip(&lanes) {
+        for k in set_lanes(p.active) {
+            sums[at(p.x0, p.y0, k)] = sum.lane(k);
         }
     }
     counts

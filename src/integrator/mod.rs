@@ -10,11 +10,13 @@
 //! One file past 700 lines (120 of them tests): the tracer's state and the surface
 //! kernels every shading path calls.
 
+mod regroup;
 mod scatter;
 mod shade;
 
+pub use regroup::{Regrouped, Regrouping};
 pub use scatter::{random_unit_vector_lanes, scatter};
-pub use shade::footprint;
+pub use shade::{footprint, PacketPixels};
 
 use crate::accel::cull::{Cone, Cull, CullTargets};
 use crate::accel::packet::{PacketHits, MAX_WIDTH};

@@ -450,6 +450,9 @@ pub fn compile_within(
             .iter()
             .any(|m| matches!(m, Material::PhongMirror { .. })),
         has_path_traced: materials.iter().any(Material::is_path_traced),
+        has_phong: materials
+            .iter()
+            .any(|m| matches!(m, Material::Phong(_) | Material::PhongMirror { .. })),
     };
 
     Ok(Scene {

@@ -54,6 +54,8 @@ pub struct Features {
     pub has_mirror: bool,
     /// Diffuse, Metal or Dielectric present: the path-tracing loop is needed.
     pub has_path_traced: bool,
+    /// Phong or PhongMirror present: some paths end at their first vertex.
+    pub has_phong: bool,
 }
 
 impl Features {
