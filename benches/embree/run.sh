@@ -3,13 +3,15 @@
 #
 #   benches/embree/run.sh [ROUNDS] [PASSES]     (defaults 3 and 5)
 #
-# Five cases. `bunny` and `closeup`: the built-in scenes as they are (a mesh and three
+# Seven cases. `bunny` and `closeup`: the built-in scenes as they are (a mesh and three
 # spheres; Embree gets the spheres as sphere points, in a second BVH of its own).
 # `bunny-mesh` and `closeup-mesh`: the same camera rays on the mesh alone (both tracers
 # get the same triangles and nothing else). `bunny-light`: `bunny`'s shadow rays on its
 # mesh and its point light (ours needs the light's sphere to answer a shadow query, and
 # tests it beside the tree; Embree gets the mesh alone, each ray ending just short of
-# the light). Each round runs `vs_embree` (ours) then `embree_bench` (Embree) twice on
+# the light). `big-far` and `big-close`: the camera rays of those two views (800x450,
+# 2 samples a pixel) on the bunny subdivided four times, 1 271 808 triangles, alone
+# (far, they are smaller than a pixel). Each round runs `vs_embree` (ours) then `embree_bench` (Embree) twice on
 # each case: with Embree's default intersect context (which says the rays are
 # incoherent) and with EMBREE_COHERENT=1 (RTC_INTERSECT_CONTEXT_FLAG_COHERENT, how
 # Embree is meant to be given camera packets); each prints every pass and the median
@@ -37,7 +39,9 @@ ours=target/release/examples/vs_embree
 cases=("bunny bunny bunny all 0" "closeup bunny-closeup bunny-closeup all 0"
     "bunny-mesh benches/embree/bunny-mesh.toml bunny all 1"
     "closeup-mesh benches/embree/bunny-closeup-mesh.toml bunny-closeup all 1"
-    "bunny-light benches/embree/bunny-mesh-light.toml bunny shadow8 1")
+    "bunny-light benches/embree/bunny-mesh-light.toml bunny shadow8 1"
+    "big-far benches/embree/big-mesh-far.toml benches/embree/big-mesh-far.toml all 1"
+    "big-close benches/embree/big-mesh-close.toml benches/embree/big-mesh-close.toml all 1")
 for c in "${cases[@]}"; do
     read -r n scene rays _ _ <<<"$c"
     "$ours" "$scene" "$work/$n.rays" 0 "$rays" >/dev/null
