@@ -3,14 +3,18 @@
 
     cargo build --release
     python3 benches/corpus/run.py [--rounds 5] [--perf] [--only NAME ...]
+        [--baseline OTHER_BINARY]
 
 For each scene: the render phase's seconds (`--report`'s `render`) at each width, the
 median over rounds, the ratio scalar / 8-wide, the 8-wide Mrays/s, the packets' lane
 occupancies and what went single (`--stats`), and with `--perf` the three largest
 functions of the 8-wide render (`perf record`, self time). Every run uses
 `--sampler independent`; the widths of one scene run back to back, in an order that
-turns each round, so a change in the machine's load falls on all three. Prints a
-Markdown table (docs/performance.md, "The scene corpus") and the machine it ran on.
+turns each round, so a change in the machine's load falls on all three. With
+`--baseline`, another build of the renderer (a copy of an earlier
+`target/release/raytracer`) runs the scalar and 8-wide renders in the same rounds,
+alternated with this one, and the table gains their ratios. Prints a Markdown table
+(docs/performance.md, "The scene corpus") and the machine it ran on.
 """
 
 import argparse
@@ -56,13 +60,13 @@ def scene_args(name):
     return [os.path.join(ROOT, "benches", "corpus", name + ".toml")]
 
 
-def run(name, width, tmp, extra=()):
+def run(name, width, tmp, extra=(), binary=None):
     report = os.path.join(tmp, "report.json")
     args = scene_args(name) + [
         "--threads", "1", "--packet-width", str(width), "--sampler", "independent",
         "-q", "-o", os.path.join(tmp, "out.exr"), "--report", report, *extra,
     ]
-    done = subprocess.run([BIN] + args, capture_output=True, text=True)
+    done = subprocess.run([binary or BIN] + args, capture_output=True, text=True)
     if done.returncode != 0:
         sys.exit(f"{' '.join(args)} failed:\n{done.stderr}")
     with open(report) as f:
@@ -108,6 +112,7 @@ def main():
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--perf", action="store_true", help="add the hottest functions")
     parser.add_argument("--only", nargs="*", help="these scenes only")
+    parser.add_argument("--baseline", help="another build to compare with, alternated")
     a = parser.parse_args()
     names = CORPUS + [n for n, _ in BUILTIN]
     if a.only:
@@ -123,19 +128,28 @@ def main():
     print(f"load before: {open('/proc/loadavg').read().split()[:3]}")
     with tempfile.TemporaryDirectory() as tmp:
         times = {n: {w: [] for w in WIDTHS} for n in names}
+        before = {n: {w: [] for w in (1, 8)} for n in names}
         rays = {}
         for r in range(a.rounds):
             order = WIDTHS[r % 3:] + WIDTHS[:r % 3]
             for n in names:
                 for w in order:
+                    # This build and the baseline take turns at going first.
+                    both = a.baseline and w in before[n]
+                    if both and r % 2:
+                        before[n][w].append(run(n, w, tmp, binary=a.baseline)[0])
                     seconds, count, _ = run(n, w, tmp)
                     times[n][w].append(seconds)
                     rays[n] = count
+                    if both and not r % 2:
+                        before[n][w].append(run(n, w, tmp, binary=a.baseline)[0])
             print(f"round {r + 1} of {a.rounds}, load {open('/proc/loadavg').read().split()[:3]}",
                   file=sys.stderr)
         print()
         head = "| scene | scalar | 4-wide | 8-wide | scalar / 8-wide | 8-wide Mrays/s " \
                "| occupancy camera, shadow, secondary | at node visits |"
+        if a.baseline:
+            head += " 8-wide, baseline / this | scalar, baseline / this |"
         if a.perf:
             head += " largest functions (8-wide, self) |"
         print(head)
@@ -148,6 +162,9 @@ def main():
                    f"| {med[1] / med[8]:.2f}x | {rays[n] / med[8] / 1e6:.1f} "
                    f"| {occ.get('camera', '-')}, {occ.get('shadow', '-')}, "
                    f"{occ.get('secondary', '-')} | {visits} |")
+            if a.baseline:
+                for w in (8, 1):
+                    row += f" {statistics.median(before[n][w]) / med[w]:.2f}x |"
             if a.perf:
                 row += f" {hottest(n, tmp)} |"
             print(row)
