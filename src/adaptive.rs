@@ -267,14 +267,15 @@ impl TileSums {
             self.log_rates += r.ln();
             self.rate = (self.log_rates / self.rates as f64).exp();
         }
-        let now = raw * self.rate / (1.0 - self.rate);
         // The mean of this estimate and the last one carried to n by the rate: two
-        // half-independent looks, so that a tile does not stop on one low draw.
-        self.estimate = if doubled && self.estimate.is_finite() {
-            0.5 * (now + self.estimate * self.rate)
+        // half-independent looks, so that a tile does not stop on one low draw; both
+        // corrected by the tile's rate as it is now (the first look at n = 2 had none).
+        let looks = if doubled && self.raw.is_finite() {
+            0.5 * (raw + self.raw * self.rate)
         } else {
-            now
+            raw
         };
+        self.estimate = looks * self.rate / (1.0 - self.rate);
         self.raw = raw;
     }
 
