@@ -197,10 +197,7 @@ impl Bvh {
             cx.stats.single_lanes += lanes.count_ones() as u64;
             let mut visible = 0;
             for k in set_lanes(lanes) {
-                if self
-                    .closest_hit(cx.reborrow(), &p.ray(k), t_min, f32::INFINITY)
-                    .is_some_and(|h| h.object == light.object)
-                {
+                if self.nearest_is_light(cx.reborrow(), &p.ray(k), t_min, light) {
                     visible |= 1 << k;
                 }
             }
