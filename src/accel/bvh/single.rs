@@ -271,8 +271,10 @@ impl Closest {
 }
 
 impl Bvh {
-    /// Closest hit in `[t_min, t_max]` by the `(t, id)` rule.
-    #[inline]
+    /// Closest hit in `[t_min, t_max]` by the `(t, id)` rule. Inlined into each caller:
+    /// as a call of its own (once a mesh light's shadow rays called it too) the scalar
+    /// renders took 3–5% more instructions.
+    #[inline(always)]
     pub fn closest_hit(&self, cx: Context<'_>, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let scene = cx.scene;
         let (mut rq, q) = RayQuery::with_reciprocals(cx, ray);
