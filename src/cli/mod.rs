@@ -26,6 +26,7 @@ pub mod report;
 pub mod run;
 pub mod stats;
 pub mod sweep;
+pub mod sweep_summary;
 
 use anyhow::Context;
 use raytracer::output::ImageFormat;
