@@ -482,10 +482,13 @@ fn accumulate_tile_packets<L: Lane>(
     let mut counts = RayCounts::default();
     // What the tile's camera rays may hit (the packets' footprints may reach past the
     // tile's edge: those lanes are inactive and never reported).
-    let cull = tracer.camera_cull(x0, y0, x1, y1);
+    let mut cull = tracer.camera_cull(x0, y0, x1, y1);
     let (cone_prims, cone_tree) = cull.skipped(tracer.accel);
+    // The first packet whose frustum meets leaves decides for the tile's others.
+    let mut frustum_decided = false;
     for py in (y0..y1).step_by(fh as usize) {
         for px in (x0..x1).step_by(fw as usize) {
+            let seen = counts.traversal;
             let mut active = 0u32;
             for k in 0..L::WIDTH as u32 {
                 let (x, y) = (px + k % fw, py + k / fw);
@@ -507,6 +510,15 @@ fn accumulate_tile_packets<L: Lane>(
             for s in samples.clone() {
                 lanes = lanes + tracer.sample_packet::<L>(px, py, active, s, cull, &mut counts);
             }
+            if !frustum_decided {
+                let t = &counts.traversal;
+                let leaves = t.frustum_leaves - seen.frustum_leaves;
+                if leaves > 0 {
+                    let entered = t.frustum_leaf_lanes - seen.frustum_leaf_lanes;
+                    cull.frustum = frustum_pays(leaves, entered, active);
+                    frustum_decided = true;
+                }
+            }
             counts.cone_prims += cone_prims * active.count_ones() as u64 * taken;
             counts.cone_trees += cone_tree as u64 * taken;
             for k in 0..L::WIDTH as u32 {
@@ -517,6 +529,17 @@ fn accumulate_tile_packets<L: Lane>(
         }
     }
     counts
+}
+
+/// Whether a tile's camera packets keep the frustum traversal, from one packet's: the
+/// leaves its frustum met and the lanes that entered them. Where triangles are smaller
+/// than a pixel a leaf holds one lane's hit at most, and the lane-wise traversal visits
+/// only the nodes some lane enters (camera packets of the 1.27M-triangle bunny from
+/// afar: 64.6M instructions by the frustum, 30.7M lane-wise; close up 164.9M and
+/// 193.1M). At 400 px the frustum's leaves held a median 0.8% of the lanes from afar,
+/// 9% close up, 30% on `bunny` and 74% on `bunny-closeup`: below 1/32, lane-wise.
+fn frustum_pays(leaves: u64, entered: u64, active: u32) -> bool {
+    entered * 32 >= leaves * active.count_ones() as u64
 }
 
 /// `accumulate_tile_packets` for a scene whose surfaces are all path-traced: the

@@ -21,6 +21,9 @@ pub struct Cull {
     pub tree: bool,
     /// Nothing at all can be hit (every primitive ruled out).
     pub nothing: bool,
+    /// Camera packets may take the frustum traversal; a tile whose rays share little
+    /// turns it off (`render::accumulate_tile`).
+    pub frustum: bool,
 }
 
 impl Cull {
@@ -29,6 +32,7 @@ impl Cull {
         beside: [u32::MAX; 3],
         tree: true,
         nothing: false,
+        frustum: true,
     };
 
     /// The primitive tests and the tree this leaves out, for `--stats`: (primitives
@@ -217,6 +221,7 @@ impl CullTargets {
             beside: [u32::MAX; 3],
             tree: cone.may_meet_box(&self.tree),
             nothing: false,
+            frustum: true,
         };
         let mut kept = 0;
         for (mask, balls) in c.beside.iter_mut().zip(&self.beside) {

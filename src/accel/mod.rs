@@ -111,6 +111,9 @@ pub struct TraversalStats {
     /// Lanes a packet handed to the single-ray traversal: a subtree entered by one lane
     /// (`RayPacket::fallback`), a shadow ray to a light of many primitives.
     pub single_lanes: u64,
+    /// Leaves a camera packet's frustum met, and the lanes that entered them.
+    pub frustum_leaves: u64,
+    pub frustum_leaf_lanes: u64,
 }
 
 /// What every query of an acceleration structure reads and writes besides its rays: the
@@ -148,6 +151,8 @@ impl TraversalStats {
         self.packet_nodes += o.packet_nodes;
         self.packet_lanes += o.packet_lanes;
         self.single_lanes += o.single_lanes;
+        self.frustum_leaves += o.frustum_leaves;
+        self.frustum_leaf_lanes += o.frustum_leaf_lanes;
     }
 }
 
