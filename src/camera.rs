@@ -35,6 +35,59 @@ impl Lens {
     };
 }
 
+/// Where the camera stands and how it sees: the `[camera]` keys that place it, in the
+/// scene file's units (degrees for the angles). [`Renderer::camera_pose`] and
+/// [`Renderer::set_camera_pose`] read and move a compiled scene's camera, and
+/// [`CameraPose::to_toml`] writes the table back for the scene file.
+///
+/// [`Renderer::camera_pose`]: crate::Renderer::camera_pose
+/// [`Renderer::set_camera_pose`]: crate::Renderer::set_camera_pose
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraPose {
+    /// The pinhole, or the lens's centre.
+    pub look_from: [f64; 3],
+    /// The point the camera looks at.
+    pub look_at: [f64; 3],
+    /// The direction that is up in the picture (not parallel to the view).
+    pub up: [f64; 3],
+    /// Vertical field of view in degrees (0 to 180).
+    pub vfov: f64,
+    /// The lens's opening in degrees (0: a pinhole).
+    pub defocus_angle: f64,
+    /// Distance of the plane in focus (> 0).
+    pub focus_dist: f64,
+}
+
+impl CameraPose {
+    /// The `[camera]` table of a `width` x `height` image at `spp` samples a pixel and
+    /// `max_depth` bounces with this pose: every number written so that it reads back
+    /// as the same `f64`, so the scene file renders the same bits.
+    pub fn to_toml(&self, width: u32, height: u32, spp: u32, max_depth: u32) -> String {
+        fn gcd(a: u32, b: u32) -> u32 {
+            if b == 0 {
+                a
+            } else {
+                gcd(b, a % b)
+            }
+        }
+        let g = gcd(width, height).max(1);
+        let v = |v: [f64; 3]| format!("[{:?}, {:?}, {:?}]", v[0], v[1], v[2]);
+        format!(
+            "[camera]\nwidth = {width}\naspect_ratio = \"{}:{}\"\nsamples_per_pixel = {spp}\n\
+             max_depth = {max_depth}\nvfov = {:?}\nlook_from = {}\nlook_at = {}\nup = {}\n\
+             defocus_angle = {:?}\nfocus_dist = {:?}\n",
+            width / g,
+            height / g,
+            self.vfov,
+            v(self.look_from),
+            v(self.look_at),
+            v(self.up),
+            self.defocus_angle,
+            self.focus_dist,
+        )
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     pub width: u32,

@@ -32,7 +32,9 @@
 //! [`Renderer::render`] runs on the current rayon thread pool.
 //! [`Renderer::render_adaptive`] renders to an error instead of a sample count
 //! ([`Adaptive`]): passes that give more samples to the tiles whose estimated error is
-//! still above the target.
+//! still above the target. [`Renderer::render_pass`] renders one sample a pixel at a
+//! time into a [`Progressive`] render, to show the image as it refines, and
+//! [`Renderer::set_camera_pose`] moves the camera between passes.
 //!
 //! A frame can be farmed out: [`Renderer::render_part`] renders one [`Region`] of it (part
 //! I of N, or a crop window) into a [`Part`], written as a part file anywhere, and
@@ -42,11 +44,13 @@
 
 mod error;
 mod film;
+mod progressive;
 mod renderer;
 mod settings;
 
 pub use accel::AccelKind;
 pub use adaptive::{Adaptive, Outcome, PassProgress, Stop};
+pub use camera::CameraPose;
 #[doc(hidden)]
 pub use error::one_line;
 pub use error::{Error, Result};
@@ -56,6 +60,7 @@ pub use farm::region::{Rect, Region};
 pub use film::Film;
 pub use glam::Vec3;
 pub use integrator::RayCounts;
+pub use progressive::Progressive;
 pub use render::Rendered;
 pub use renderer::{Renderer, SceneFile, SceneOptions};
 pub use sampling::SamplerKind;

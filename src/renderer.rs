@@ -5,10 +5,13 @@
 use crate::accel::{Accel, AccelKind};
 use crate::adaptive::{Adaptive, PassProgress, Stop};
 use crate::budget::Budget;
+use crate::camera::{CameraPose, Lens};
 use crate::error::Result;
 use crate::farm::part::{self, Part, PixelSettings};
 use crate::farm::region::{Region, TILE};
 use crate::film::Film;
+use crate::integrator::RayCounts;
+use crate::progressive::{self, Progressive};
 use crate::render::{self, Rendered};
 use crate::scene::desc::{ObjectDesc, SceneDesc};
 use crate::scene::{builtin, compile_within, mesh, Overrides, Scene, SceneSource};
@@ -119,6 +122,8 @@ pub struct Renderer {
     build_time: Duration,
     /// `part::scene_digest`, taken by the first part rendered.
     digest: OnceLock<String>,
+    /// The camera's place, as the scene file gave it or as last set.
+    pose: CameraPose,
 }
 
 impl Renderer {
@@ -147,11 +152,28 @@ impl Renderer {
         )?;
         let start = Instant::now();
         let accel = Accel::build(&mut scene, options.accel);
+        let default_camera = crate::scene::desc::CameraDesc::default();
+        let cam = file
+            .desc
+            .camera
+            .as_ref()
+            .map_or(&default_camera, |c| c.get_ref());
+        let lens =
+            |v: &Option<toml::Spanned<f64>>, default| v.as_ref().map_or(default, |v| *v.get_ref());
+        let pose = CameraPose {
+            look_from: cam.look_from.0,
+            look_at: cam.look_at.0,
+            up: cam.up.0,
+            vfov: cam.vfov,
+            defocus_angle: lens(&cam.defocus_angle, Lens::PINHOLE.defocus_angle),
+            focus_dist: lens(&cam.focus_dist, Lens::PINHOLE.focus_dist),
+        };
         Ok(Self {
             scene,
             accel,
             build_time: start.elapsed(),
             digest: OnceLock::new(),
+            pose,
         })
     }
 
@@ -313,6 +335,85 @@ impl Renderer {
             self.digest.get_or_init(|| part::scene_digest(&self.scene)),
             PixelSettings::new(&self.scene, settings, Some(&recorded)),
         ))
+    }
+
+    /// Path depth: the most bounces a path takes.
+    pub fn max_depth(&self) -> u32 {
+        self.scene.max_depth
+    }
+
+    /// Where the camera stands and how it sees.
+    pub fn camera_pose(&self) -> CameraPose {
+        self.pose
+    }
+
+    /// Move the camera: every later render sees the scene from `pose`, as a scene file
+    /// with that pose in its `[camera]` table ([`Renderer::camera_toml`]) renders it, to
+    /// the bit. A pose the scene file could not hold (`look_from` equal to `look_at`, a
+    /// `vfov` outside 0 to 180 degrees, a camera too far for f32 rays) is
+    /// [`Error::Options`](crate::Error::Options), and the camera stays where it was.
+    pub fn set_camera_pose(&mut self, pose: &CameraPose) -> Result<()> {
+        let camera = crate::scene::checked_camera(self.width(), self.height(), pose)
+            .map_err(|(_, msg)| crate::Error::Options(msg))?;
+        self.scene.camera = camera;
+        self.pose = *pose;
+        // A part file names the scene's digest, which covers the camera.
+        self.digest = OnceLock::new();
+        Ok(())
+    }
+
+    /// The `[camera]` table that renders this camera, at this size, samples a pixel and
+    /// depth ([`CameraPose::to_toml`]): pasted into the scene file in place of its own,
+    /// the file renders what this renderer renders.
+    pub fn camera_toml(&self) -> String {
+        self.pose
+            .to_toml(self.width(), self.height(), self.spp(), self.max_depth())
+    }
+
+    /// A progressive render of up to `spp` passes of one sample a pixel: its sums start
+    /// black, and each [`Renderer::render_pass`] adds a pass. `spp` only matters to the
+    /// stratified sampler, which spreads a pixel's draws over it.
+    ///
+    /// After N passes the film is the bits of [`Renderer::render`] at N samples a pixel,
+    /// with the same settings:
+    ///
+    /// ```
+    /// use raytracer::{RenderSettings, Renderer, SceneFile, SceneOptions};
+    ///
+    /// let file = SceneFile::from_toml(r#"
+    ///     camera = { width = 24, aspect_ratio = 1.5 }
+    ///     materials.red = { type = "phong", albedo = [0.8, 0.1, 0.1], shininess = 10 }
+    ///     materials.lamp = { type = "light", color = [1, 1, 1] }
+    ///     objects = [
+    ///         { type = "sphere", center = [0, 0, -2], radius = 0.5, material = "red" },
+    ///         { type = "sphere", center = [1, 1, -1], radius = 0.1, material = "lamp" },
+    ///     ]
+    /// "#)?;
+    /// let settings = RenderSettings::default();
+    /// let renderer = Renderer::new(&file, &SceneOptions::default())?;
+    /// let mut progressive = renderer.progressive(64)?;
+    /// for _ in 0..3 {
+    ///     renderer.render_pass(&settings, &mut progressive)?;
+    /// }
+    /// let three = SceneOptions { spp: Some(3), ..Default::default() };
+    /// assert_eq!(progressive.film()?, Renderer::new(&file, &three)?.render(&settings)?);
+    /// # Ok::<(), raytracer::Error>(())
+    /// ```
+    pub fn progressive(&self, spp: u32) -> Result<Progressive> {
+        Progressive::new(self.width(), self.height(), spp)
+    }
+
+    /// Render the next pass of `progressive`: sample `progressive.passes()` of every
+    /// pixel, added to its sum, on the current rayon pool; the rays it traced. After the
+    /// camera moves, [`Progressive::restart`] starts again from sample 0.
+    /// [`Error::Options`](crate::Error::Options) for a render of another image size or
+    /// with all its passes.
+    pub fn render_pass(
+        &self,
+        settings: &RenderSettings,
+        progressive: &mut Progressive,
+    ) -> Result<RayCounts> {
+        progressive::render_pass(&self.scene, &self.accel, settings, progressive)
     }
 
     /// The compiled scene, for the command line's statistics and the tests.

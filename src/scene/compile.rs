@@ -9,7 +9,7 @@ use super::{
     MAX_PIXELS, MAX_SUBDIVIDE,
 };
 use crate::budget::{Budget, MemoryEstimate, OBJ_BYTES_PER_FILE_BYTE};
-use crate::camera::{image_height, Camera, Lens};
+use crate::camera::{image_height, Camera, CameraPose, Lens};
 use crate::error::{Error, Result};
 use crate::geometry::quad::{box_faces, Quad};
 use crate::geometry::triangle::is_proper_triangle;
@@ -105,83 +105,29 @@ pub fn compile_within(
         &estimate,
         &format!("{}: a {width}x{height} image", source.display),
     )?;
-    if !(cam.vfov.is_finite() && cam.vfov > 0.0 && cam.vfov < 180.0) {
-        return Err(err(
-            cam_at,
-            format!("vfov must be between 0 and 180 degrees, got {}", cam.vfov),
-        ));
-    }
-    for (key, v) in [
-        ("look_from", cam.look_from),
-        ("look_at", cam.look_at),
-        ("up", cam.up),
-    ] {
-        if !v.0.iter().all(|x| x.is_finite()) {
-            return Err(err(
-                cam_at,
-                format!("camera {key} must be finite, got {:?}", v.0),
-            ));
-        }
-    }
     // The lens: a bad value is reported where it is set.
     let value = |v: &Option<toml::Spanned<f64>>, default| {
         v.as_ref()
             .map_or((default, cam_at), |v| (*v.get_ref(), v.span().start))
     };
     let (defocus_angle, angle_at) = value(&cam.defocus_angle, Lens::PINHOLE.defocus_angle);
-    if !(0.0..180.0).contains(&defocus_angle) {
-        return Err(err(
-            angle_at,
-            format!("camera defocus_angle must be at least 0 and below 180 degrees, got {defocus_angle}"),
-        ));
-    }
     let (focus_dist, focus_at) = value(&cam.focus_dist, Lens::PINHOLE.focus_dist);
-    if !(focus_dist.is_finite() && focus_dist > 0.0) {
-        return Err(err(
-            focus_at,
-            format!("camera focus_dist must be finite and positive, got {focus_dist}"),
-        ));
-    }
-    let lens = Lens {
-        focus_dist,
+    let pose = CameraPose {
+        look_from: cam.look_from.0,
+        look_at: cam.look_at.0,
+        up: cam.up.0,
+        vfov: cam.vfov,
         defocus_angle,
+        focus_dist,
     };
-    if let Some(x) = cam
-        .look_from
-        .0
-        .iter()
-        .find(|x| x.abs() > MAX_CAMERA_COORDINATE)
-    {
-        return Err(err(
-            cam_at,
-            format!(
-                "camera look_from {:?}: {x:e} is too large: the camera must lie within ±{MAX_CAMERA_COORDINATE:e} on every axis (its rays are made in f32; move the scene nearer the origin)",
-                cam.look_from.0
-            ),
-        ));
-    }
-    let camera = Camera::new(
-        width,
-        height,
-        cam.vfov,
-        DVec3::from(cam.look_from.0),
-        DVec3::from(cam.look_at.0),
-        DVec3::from(cam.up.0),
-        lens,
-    )
-    .ok_or_else(|| {
-        err(cam_at, "camera look_from and look_at must differ, and up must not be parallel to the view direction".into())
+    let camera = checked_camera(width, height, &pose).map_err(|(key, msg)| {
+        let at = match key {
+            CameraKey::DefocusAngle => angle_at,
+            CameraKey::FocusDist => focus_at,
+            CameraKey::Camera => cam_at,
+        };
+        err(at, msg)
     })?;
-    check_focus(&camera, lens).map_err(|msg| err(focus_at, msg))?;
-    let extent = limits::camera_extent(&camera);
-    if extent.is_nan() || extent > MAX_CAMERA_COORDINATE {
-        return Err(err(
-            cam_at,
-            format!(
-                "camera image plane reaches {extent:.3e}: the camera and its image plane (focus_dist in front of look_from, default 1, as wide as vfov makes it) must lie within ±{MAX_CAMERA_COORDINATE:e} on every axis (its rays are made in f32; narrow vfov or shorten focus_dist)"
-            ),
-        ));
-    }
 
     // Background and ambient.
     let mut bound = SampleBound::default();
@@ -473,6 +419,88 @@ pub fn compile_within(
         bounds,
         degenerate_triangles,
     })
+}
+
+/// Which `[camera]` key a camera error is about, so that the message points at it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum CameraKey {
+    /// The table as a whole (`vfov`, `look_from`, `look_at`, `up`).
+    Camera,
+    DefocusAngle,
+    FocusDist,
+}
+
+/// The camera of a `width` x `height` image placed by `pose`, every value checked as the
+/// scene file's are: the message for a bad one, and the key it is about.
+pub(crate) fn checked_camera(
+    width: u32,
+    height: u32,
+    pose: &CameraPose,
+) -> std::result::Result<Camera, (CameraKey, String)> {
+    let table = |msg: String| (CameraKey::Camera, msg);
+    if !(pose.vfov.is_finite() && pose.vfov > 0.0 && pose.vfov < 180.0) {
+        return Err(table(format!(
+            "vfov must be between 0 and 180 degrees, got {}",
+            pose.vfov
+        )));
+    }
+    for (key, v) in [
+        ("look_from", pose.look_from),
+        ("look_at", pose.look_at),
+        ("up", pose.up),
+    ] {
+        if !v.iter().all(|x| x.is_finite()) {
+            return Err(table(format!("camera {key} must be finite, got {v:?}")));
+        }
+    }
+    let defocus_angle = pose.defocus_angle;
+    if !(0.0..180.0).contains(&defocus_angle) {
+        return Err((
+            CameraKey::DefocusAngle,
+            format!("camera defocus_angle must be at least 0 and below 180 degrees, got {defocus_angle}"),
+        ));
+    }
+    let focus_dist = pose.focus_dist;
+    if !(focus_dist.is_finite() && focus_dist > 0.0) {
+        return Err((
+            CameraKey::FocusDist,
+            format!("camera focus_dist must be finite and positive, got {focus_dist}"),
+        ));
+    }
+    let lens = Lens {
+        focus_dist,
+        defocus_angle,
+    };
+    if let Some(x) = pose
+        .look_from
+        .iter()
+        .find(|x| x.abs() > MAX_CAMERA_COORDINATE)
+    {
+        return Err(table(format!(
+            "camera look_from {:?}: {x:e} is too large: the camera must lie within ±{MAX_CAMERA_COORDINATE:e} on every axis (its rays are made in f32; move the scene nearer the origin)",
+            pose.look_from
+        )));
+    }
+    let camera = Camera::new(
+        width,
+        height,
+        pose.vfov,
+        DVec3::from(pose.look_from),
+        DVec3::from(pose.look_at),
+        DVec3::from(pose.up),
+        lens,
+    )
+    .ok_or_else(|| {
+        table("camera look_from and look_at must differ, and up must not be parallel to the view direction".into())
+    })?;
+    check_focus(&camera, lens).map_err(|msg| (CameraKey::FocusDist, msg))?;
+    let extent = limits::camera_extent(&camera);
+    if extent.is_nan() || extent > MAX_CAMERA_COORDINATE {
+        return Err(table(format!(
+            "camera image plane reaches {extent:.3e}: the camera and its image plane (focus_dist in front of look_from, default 1, as wide as vfov makes it) must lie within ±{MAX_CAMERA_COORDINATE:e} on every axis (its rays are made in f32; narrow vfov or shorten focus_dist)"
+        )));
+    }
+    Ok(camera)
 }
 
 /// The smallest `focus_dist`, relative to the camera's largest coordinate C (`look_from`

@@ -19,6 +19,7 @@ use crate::camera::Camera;
 use crate::error::Result;
 use crate::geometry::{Aabb, QuadPool, SpherePool, TrianglePool};
 use crate::material::Material;
+pub(crate) use compile::checked_camera;
 pub use compile::{compile, compile_within, MIN_FOCUS, MIN_FOCUS_RELATIVE};
 use glam::Vec3;
 pub use light::{Light, LightShape};
