@@ -54,6 +54,7 @@ fn run() -> anyhow::Result<ExitCode> {
         Options::Render(o) => cli::render::run(o, threads),
         Options::Reference(o) => cli::sweep::reference(o, threads),
         Options::Sweep(o) => cli::sweep::sweep(o, threads),
+        Options::View(o) => cli::view::run(o),
     })?;
     Ok(ExitCode::SUCCESS)
 }

@@ -237,6 +237,45 @@ pub enum Command {
     /// checking that they come from one program, scene and settings and that they hold
     /// every pixel exactly once. The frame has the bits of a one-process render.
     Merge(MergeArgs),
+    /// Serve a live view of the scene to a web browser: the render refined pass after
+    /// pass, a camera that orbits, pans and zooms with the mouse, and buttons that save
+    /// the image and give the camera as a [camera] table for the scene file.
+    View(ViewArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct ViewArgs {
+    /// A built-in scene name or a .toml scene file.
+    pub scene: String,
+    /// The port to listen on [default: a free one]; the URL is printed.
+    #[arg(long, default_value_t = 0)]
+    pub port: u16,
+    /// The address to listen on. Anything but a loopback address lets other machines
+    /// see the scene and move its camera.
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1")]
+    pub listen: std::net::IpAddr,
+    /// Image width; the height follows the scene's aspect ratio.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub width: Option<u32>,
+    /// The samples a pixel the view refines to (one a pass), and the sample count the
+    /// stratified sampler spreads its draws over.
+    #[arg(long, default_value_t = 4096, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+    pub spp: u32,
+    /// Maximum path depth (overrides the scene).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=10000))]
+    pub max_depth: Option<u32>,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub threads: Option<u32>,
+    /// Seed of the random numbers.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// How pixel jitter, light samples and bounces are spread.
+    #[arg(long, value_enum, default_value_t = Sampler::Sobol)]
+    pub sampler: Sampler,
+    /// Rays per packet: 1, 4 or 8; the image is the same bits.
+    #[arg(long, default_value_t = PacketWidth::widest(), hide_default_value = true)]
+    pub packet_width: PacketWidth,
 }
 
 #[derive(Debug, clap::Args)]

@@ -1,6 +1,6 @@
 //! The command line, in the binary only (the library knows nothing of it): `args` (clap's
-//! flags) → `options` (validated, defaults filled in) → `render`, `merge` or `sweep` (the
-//! run), with the `report` (JSON) and `stats` printers apart; a render's record, which
+//! flags) → `options` (validated, defaults filled in) → `render`, `merge`, `sweep` or `view`
+//! (the run), with the `report` (JSON) and `stats` printers apart; a render's record, which
 //! both print, is `run`, and the sweep's chart is drawn by `chart`.
 //!
 //! Messages on stderr (notes, warnings, statistics, the summary line, errors) are best
@@ -27,6 +27,7 @@ pub mod run;
 pub mod stats;
 pub mod sweep;
 pub mod sweep_summary;
+pub mod view;
 
 use anyhow::Context;
 use raytracer::output::ImageFormat;

@@ -18,6 +18,7 @@ pub enum Options {
     Reference(ReferenceOptions),
     Sweep(SweepOptions),
     Merge(MergeOptions),
+    View(super::view::ViewOptions),
 }
 
 /// Render one scene to an image.
@@ -102,7 +103,7 @@ impl Options {
     /// temporary files (`output::remove_stale_temporaries`).
     pub fn output_dirs(&self) -> Vec<PathBuf> {
         let mut dirs: Vec<PathBuf> = match self {
-            Options::List => Vec::new(),
+            Options::List | Options::View(_) => Vec::new(),
             Options::Merge(o) => std::iter::once(&o.output)
                 .filter(|p| !is_stdout(p))
                 .map(|p| output::directory_of(p))
@@ -145,6 +146,10 @@ pub fn from_args(args: Args) -> anyhow::Result<(Options, Option<u32>)> {
             Ok((Options::Sweep(sweep(s)), threads))
         }
         Some(args::Command::Merge(m)) => Ok((Options::Merge(merge(m)?), None)),
+        Some(args::Command::View(v)) => {
+            let threads = v.threads;
+            Ok((Options::View(super::view::ViewOptions::from(v)), threads))
+        }
         None if args.list => Ok((Options::List, None)),
         None => {
             let threads = args.threads;
