@@ -124,6 +124,8 @@ pub struct Renderer {
     digest: OnceLock<String>,
     /// The camera's place, as the scene file gave it or as last set.
     pose: CameraPose,
+    /// The image size the scene was compiled (and its memory checked) for.
+    built_size: (u32, u32),
 }
 
 impl Renderer {
@@ -168,12 +170,14 @@ impl Renderer {
             defocus_angle: lens(&cam.defocus_angle, Lens::PINHOLE.defocus_angle),
             focus_dist: lens(&cam.focus_dist, Lens::PINHOLE.focus_dist),
         };
+        let built_size = (scene.camera.width, scene.camera.height);
         Ok(Self {
             scene,
             accel,
             build_time: start.elapsed(),
             digest: OnceLock::new(),
             pose,
+            built_size,
         })
     }
 
@@ -358,6 +362,25 @@ impl Renderer {
         self.scene.camera = camera;
         self.pose = *pose;
         // A part file names the scene's digest, which covers the camera.
+        self.digest = OnceLock::new();
+        Ok(())
+    }
+
+    /// Render at `width` x `height` pixels from now on, with the same pose and field of
+    /// view (a smaller picture of the same view, for a preview while the camera moves).
+    /// [`Error::Options`](crate::Error::Options) for a size outside 1 to 65536 a side
+    /// or larger than the image the renderer was built for (its memory was checked for
+    /// that), or a camera that size cannot hold; the size stays as it was.
+    pub fn set_size(&mut self, width: u32, height: u32) -> Result<()> {
+        let (w, h) = self.built_size;
+        if !(1..=w).contains(&width) || !(1..=h).contains(&height) {
+            return Err(crate::Error::Options(format!(
+                "image size {width}x{height}: at least 1x1 and at most the {w}x{h} the renderer was built for"
+            )));
+        }
+        let camera = crate::scene::checked_camera(width, height, &self.pose)
+            .map_err(|(_, msg)| crate::Error::Options(msg))?;
+        self.scene.camera = camera;
         self.digest = OnceLock::new();
         Ok(())
     }

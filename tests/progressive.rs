@@ -198,3 +198,40 @@ fn a_pass_too_many_or_of_another_size_is_an_error() {
     ));
     assert!(small.progressive(0).is_err());
 }
+
+/// A smaller picture of the same view (`set_size`) is the render of the scene file at
+/// that width, and back at the full size the renderer renders its own bits again; a
+/// size past the one it was built for is refused.
+#[test]
+fn a_smaller_size_is_the_same_view_at_that_width() {
+    let file = SceneFile::builtin("bunny").unwrap();
+    let mut view = renderer(&file, 2);
+    let settings = RenderSettings::default();
+    let full = view.render(&settings).unwrap();
+    // 40x22 at 16:9; a quarter: 10 wide, 5 high as 16:9 makes it.
+    assert_eq!((view.width(), view.height()), (40, 22));
+    view.set_size(10, 5).unwrap();
+    let small = Renderer::new(
+        &file,
+        &SceneOptions {
+            width: Some(10),
+            spp: Some(2),
+            max_depth: Some(4),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!((small.width(), small.height()), (10, 5));
+    assert_eq!(
+        bits(&view.render(&settings).unwrap()),
+        bits(&small.render(&settings).unwrap())
+    );
+    let mut preview = view.progressive(16).unwrap();
+    view.render_pass(&settings, &mut preview).unwrap();
+    assert_eq!((preview.width(), preview.height()), (10, 5));
+    for (w, h) in [(41, 22), (40, 23), (0, 5)] {
+        assert!(matches!(view.set_size(w, h), Err(Error::Options(_))));
+    }
+    view.set_size(40, 22).unwrap();
+    assert_eq!(bits(&view.render(&settings).unwrap()), bits(&full));
+}

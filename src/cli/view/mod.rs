@@ -62,12 +62,31 @@ pub struct Frame {
 
 /// The frame message's header: little-endian, 8-byte aligned; the page reads it
 /// (`page.html`, `readFrame`).
-const HEADER_BYTES: usize = 56;
+const HEADER_BYTES: usize = 64;
+
+/// The time a pass may take while the camera moves: a scene whose full-size pass takes
+/// longer is previewed at a fraction of the size (`preview_size`), so that the first
+/// frame of a move comes before the next mouse event (16 ms apart at 60 Hz).
+const PREVIEW_MS: f64 = 15.0;
+
+/// How long after a preview the view waits for the next move before it starts a full
+/// pass: a little more than the time between two mouse events.
+const SETTLE: std::time::Duration = std::time::Duration::from_millis(40);
+
+/// The size of a preview: the image divided by the smallest whole factor (up to 8)
+/// whose pass takes `PREVIEW_MS` at most, by the full pass's time; the factor.
+fn preview_size(width: u32, height: u32, full_pass_ms: f64) -> (u32, u32, u32) {
+    let factor = (full_pass_ms / PREVIEW_MS).sqrt().ceil().clamp(1.0, 8.0) as u32;
+    let w = width.div_ceil(factor).max(1);
+    let h = ((height as u64 * w as u64 + width as u64 / 2) / width as u64).max(1) as u32;
+    (w, h.min(height), factor)
+}
 
 impl Frame {
     /// The message: width, height, camera generation, passes (u32 each), then the moves
     /// applied, the pass's render time, the time its bytes took to make (ms), its rays,
-    /// the samples a pixel the view refines to (f64 each), then the RGBA rows.
+    /// the samples a pixel the view refines to, and the factor the picture is reduced
+    /// by (1, or more for a preview while moving; f64 each), then the RGBA rows.
     #[allow(clippy::too_many_arguments)]
     fn encode(
         progressive: &Progressive,
@@ -75,6 +94,7 @@ impl Frame {
         moves: u64,
         pass_ms: f64,
         rays: u64,
+        factor: u32,
         rgba: &mut Vec<u8>,
     ) -> Self {
         let start = Instant::now();
@@ -95,6 +115,7 @@ impl Frame {
             encode_ms,
             rays as f64,
             progressive.spp() as f64,
+            factor as f64,
         ] {
             message.extend_from_slice(&v.to_le_bytes());
         }
@@ -224,9 +245,25 @@ pub fn run(options: &ViewOptions) -> anyhow::Result<()> {
     let mut generation = 0u32;
     let mut moves_applied = 0u64;
     let mut rgba = Vec::new();
+    let mut preview: Option<Progressive> = None;
+    let mut full_pass_ms = 0.0f64;
+    let mut settle: Option<Instant> = None;
     loop {
         let (moves, images) = {
             let mut state = shared.lock();
+            // After a preview, a moment for the next move before a slow full pass starts
+            // (a move during a pass waits for its end).
+            while let Some(until) = settle.filter(|_| state.moves.is_empty()) {
+                let Some(left) = until.checked_duration_since(Instant::now()) else {
+                    break;
+                };
+                state = shared
+                    .wake
+                    .wait_timeout(state, left)
+                    .map(|(s, _)| s)
+                    .unwrap_or_else(|e| e.into_inner().0);
+            }
+            settle = None;
             // Nothing to do: every pass rendered, or nobody watching.
             while state.moves.is_empty()
                 && state.images.is_empty()
@@ -255,6 +292,7 @@ pub fn run(options: &ViewOptions) -> anyhow::Result<()> {
         for reply in images {
             let _ = reply.send(progressive.film()?);
         }
+        let mut moved = false;
         if !moves.is_empty() {
             let mut pose = renderer.camera_pose();
             for m in &moves {
@@ -266,7 +304,35 @@ pub fn run(options: &ViewOptions) -> anyhow::Result<()> {
                 progressive.restart();
                 generation = generation.wrapping_add(1);
                 shared.lock().camera_toml = renderer.camera_toml();
+                moved = true;
             }
+        }
+        // The camera moves and a full pass is slow: a smaller picture first.
+        let (width, height) = (progressive.width(), progressive.height());
+        let (pw, ph, factor) = preview_size(width, height, full_pass_ms);
+        if moved && factor > 1 && renderer.set_size(pw, ph).is_ok() {
+            let mut small = match preview.take() {
+                Some(p) if (p.width(), p.height()) == (pw, ph) => p,
+                _ => renderer.progressive(options.spp)?,
+            };
+            small.restart();
+            let start = Instant::now();
+            let counts = renderer.render_pass(&options.settings, &mut small);
+            renderer.set_size(width, height)?;
+            let pass_ms = start.elapsed().as_secs_f64() * 1e3;
+            let frame = Frame::encode(
+                &small,
+                generation,
+                moves_applied,
+                pass_ms,
+                counts?.total(),
+                factor,
+                &mut rgba,
+            );
+            frames.send_replace(Some(Arc::new(frame)));
+            preview = Some(small);
+            settle = Some(Instant::now() + SETTLE);
+            continue;
         }
         if progressive.is_done() {
             continue;
@@ -274,6 +340,12 @@ pub fn run(options: &ViewOptions) -> anyhow::Result<()> {
         let start = Instant::now();
         let counts = renderer.render_pass(&options.settings, &mut progressive)?;
         let pass_ms = start.elapsed().as_secs_f64() * 1e3;
+        // The full pass's time, smoothed over a few passes.
+        full_pass_ms = if full_pass_ms == 0.0 {
+            pass_ms
+        } else {
+            0.75 * full_pass_ms + 0.25 * pass_ms
+        };
         // A move arrived during the pass: its frame is already old. No tab is ready:
         // it would not be shown (but the last pass is, whenever a tab gets to it).
         let wanted = {
@@ -289,8 +361,25 @@ pub fn run(options: &ViewOptions) -> anyhow::Result<()> {
             moves_applied,
             pass_ms,
             counts.total(),
+            1,
             &mut rgba,
         );
         frames.send_replace(Some(Arc::new(frame)));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::preview_size;
+
+    /// A full pass within the preview's time is no preview; a slower one is divided by
+    /// the factor that brings it within, keeping the aspect.
+    #[test]
+    fn preview_sizes() {
+        assert_eq!(preview_size(800, 450, 10.0), (800, 450, 1));
+        assert_eq!(preview_size(800, 800, 100.0), (267, 267, 3));
+        assert_eq!(preview_size(800, 450, 40.0), (400, 225, 2));
+        assert_eq!(preview_size(800, 450, 1e9), (100, 56, 8));
+        assert_eq!(preview_size(3, 1, 1e9), (1, 1, 8));
     }
 }
