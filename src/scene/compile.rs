@@ -3,7 +3,8 @@
 
 use super::desc::{AspectDesc, MaterialDesc, ObjectDesc, SceneDesc};
 use super::input::ReadError;
-use super::limits::{SampleBound, MAX_CAMERA_COORDINATE};
+use super::limits::{SampleBound, MAX_CAMERA_COORDINATE, MAX_COORDINATE};
+use super::transform::Transform;
 use super::{
     builtin, desc, input, limits, mesh, Features, Light, LightShape, Overrides, Scene, SceneSource,
     MAX_PIXELS, MAX_SUBDIVIDE,
@@ -170,7 +171,7 @@ pub fn compile_within(
     let mut next_id = 0u32;
     let mut degenerate_triangles = 0;
     for (object, o) in desc.objects.iter().enumerate() {
-        let at = o.span().start;
+        let (at, span) = (o.span().start, o.span());
         let o = o.get_ref();
         let object = object as u32;
         let what = format!("object {} ({})", object + 1, o.kind_name());
@@ -260,13 +261,23 @@ pub fn compile_within(
                 LightShape::Quads(faces)
             }
             ObjectDesc::Mesh {
-                path, subdivide, ..
+                path,
+                subdivide,
+                scale,
+                rotate,
+                translate,
+                matrix,
+                ..
             } => {
                 if *subdivide > MAX_SUBDIVIDE {
                     return Err(oerr(format!(
                         "subdivide must be 0 to {MAX_SUBDIVIDE}, got {subdivide}"
                     )));
                 }
+                let transform = Transform::from_keys(*scale, rotate, *translate, matrix.as_deref())
+                    .map_err(|(key, msg)| {
+                        err(source.key_at(span.clone(), key), format!("{what}: {msg}"))
+                    })?;
                 let (display, text) =
                     read_mesh(source, path, &estimate, budget).map_err(|e| match e {
                         Error::Io { path: p, source: s } => {
@@ -277,6 +288,10 @@ pub fn compile_within(
                 let mut mesh = mesh::parse_obj(&display, &text)?;
                 drop(text);
                 degenerate_triangles += mesh.degenerate;
+                if !transform.is_identity() {
+                    degenerate_triangles += place_mesh(&mut mesh.triangles, &transform)
+                        .map_err(|msg| oerr(format!("{display}: {msg}")))?;
+                }
                 // What the subdivided mesh will cost, before it is made.
                 let count = (mesh.triangles.len() as u64).saturating_mul(1 << (2 * subdivide));
                 let mut after = estimate;
@@ -641,6 +656,34 @@ fn compile_material(m: &MaterialDesc) -> Result<Material, String> {
             intensity: non_negative("intensity", intensity)?,
         },
     })
+}
+
+/// Move a mesh's triangles by `transform` (in f64, each vertex rounded once to f32) and
+/// drop those that round to zero area; how many were dropped. A vertex moved beyond the
+/// coordinate limit, or every triangle dropped, is an error.
+fn place_mesh(triangles: &mut Vec<[Vec3; 3]>, transform: &Transform) -> Result<usize, String> {
+    for tri in triangles.iter_mut() {
+        for v in tri.iter_mut() {
+            let p = transform.point(*v);
+            if !p.is_finite() || p.abs().max_element() > MAX_COORDINATE {
+                return Err(format!(
+                    "the transform moves vertex [{}, {}, {}] to [{:e}, {:e}, {:e}]: the \
+                     scene must lie within ±{MAX_COORDINATE:e} on every axis (f32 \
+                     intersection tests overflow beyond)",
+                    v.x, v.y, v.z, p.x, p.y, p.z
+                ));
+            }
+            *v = p.as_vec3();
+        }
+    }
+    let before = triangles.len();
+    triangles.retain(|&t| is_proper_triangle(t));
+    if triangles.is_empty() {
+        return Err(format!(
+            "no usable triangles after the transform (all {before} round to zero area in f32)"
+        ));
+    }
+    Ok(before - triangles.len())
 }
 
 /// Points as the renderer sees them, for messages: `[-2, -3, 1e10], [2, -3, 1e10]`.

@@ -248,7 +248,67 @@ pub enum ObjectDesc {
         #[serde(default)]
         subdivide: u32,
         material: String,
+        /// A number, or one per axis; applied first.
+        #[serde(default)]
+        scale: Option<ScaleDesc>,
+        /// Rotations applied in the order written, after `scale`.
+        #[serde(default)]
+        rotate: Vec<RotationDesc>,
+        /// Applied last.
+        #[serde(default)]
+        translate: Option<V3>,
+        /// Four rows of four numbers, instead of `scale`, `rotate` and `translate`.
+        #[serde(default)]
+        matrix: Option<Vec<Vec<f64>>>,
     },
+}
+
+/// A mesh's `scale`: one number for every axis, or three.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ScaleDesc {
+    Uniform(f64),
+    PerAxis(V3),
+}
+
+impl<'de> Deserialize<'de> for ScaleDesc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(NumberOrThree)
+    }
+}
+
+struct NumberOrThree;
+
+impl<'de> Visitor<'de> for NumberOrThree {
+    type Value = ScaleDesc;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a number or an array of three numbers")
+    }
+
+    fn visit_f64<E: de::Error>(self, x: f64) -> Result<ScaleDesc, E> {
+        Ok(ScaleDesc::Uniform(x))
+    }
+
+    fn visit_i64<E: de::Error>(self, x: i64) -> Result<ScaleDesc, E> {
+        Ok(ScaleDesc::Uniform(x as f64))
+    }
+
+    fn visit_u64<E: de::Error>(self, x: u64) -> Result<ScaleDesc, E> {
+        Ok(ScaleDesc::Uniform(x as f64))
+    }
+
+    fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<ScaleDesc, A::Error> {
+        ThreeNumbers.visit_seq(seq).map(ScaleDesc::PerAxis)
+    }
+}
+
+/// One rotation of a mesh: `degrees` about `axis` (right-handed: counter-clockwise
+/// seen from the axis's tip).
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RotationDesc {
+    pub axis: V3,
+    pub degrees: f64,
 }
 
 impl ObjectDesc {

@@ -13,6 +13,7 @@ mod light;
 pub mod limits;
 pub mod mesh;
 mod source;
+pub mod transform;
 
 use crate::budget::{Budget, MemoryEstimate};
 use crate::camera::Camera;

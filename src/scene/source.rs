@@ -117,6 +117,12 @@ impl SceneSource {
         Ok(desc)
     }
 
+    /// The offset of the line inside `span` (a table) that sets `key`, or the table's
+    /// start: where an error about the key's value points.
+    pub(super) fn key_at(&self, span: Range<usize>, key: &str) -> usize {
+        key_offset(&self.text, key, span.clone()).unwrap_or(span.start)
+    }
+
     pub(super) fn error_at(&self, offset: usize, message: impl Into<String>) -> Error {
         let (line, column) = line_col(&self.text, offset);
         Error::Scene {
@@ -132,6 +138,11 @@ impl SceneSource {
 /// unknown key at the table's header; this finds the line inside `span` that sets the key.
 fn unknown_key_offset(text: &str, message: &str, span: Range<usize>) -> Option<usize> {
     let key = message.strip_prefix("unknown field `")?.split('`').next()?;
+    key_offset(text, key, span)
+}
+
+/// Where the line inside `span` that sets `key` starts (after its indent).
+fn key_offset(text: &str, key: &str, span: Range<usize>) -> Option<usize> {
     let mut offset = span.start;
     for line in text.get(span)?.split_inclusive('\n') {
         let t = line.trim_start();
