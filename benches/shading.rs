@@ -56,12 +56,12 @@ fn phong_batch<L: Lane>(tracer: &Tracer, points: &[(Vec3, Vec3)]) -> Vec<[u32; 3
         let at = |k: usize| chunk[k.min(chunk.len() - 1)];
         let xs: [u32; 8] = std::array::from_fn(|k| (c * L::WIDTH + k) as u32 % 800);
         let keys: KeyLanes = sampler.key_lanes(L::WIDTH, xs, [7; 8], 0);
-        let s = SurfaceLanes::<L> {
-            point: V3::from_fn(|k| at(k).0),
-            error: V3::splat(Vec3::splat(1e-4)),
-            normal: V3::splat(Vec3::Y),
-            front: (1 << L::WIDTH) - 1,
-        };
+        let s = SurfaceLanes::<L>::flat(
+            V3::from_fn(|k| at(k).0),
+            V3::splat(Vec3::splat(1e-4)),
+            V3::splat(Vec3::Y),
+            (1 << L::WIDTH) - 1,
+        );
         let view = V3::from_fn(|k| at(k).1);
         let lanes = (1u32 << chunk.len()) - 1;
         let colour = tracer.phong_lanes(

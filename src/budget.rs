@@ -41,6 +41,8 @@ pub const TRIANGLE_BYTES: u64 = 44;
 pub const BVH_BYTES_PER_PRIMITIVE: u64 = 112;
 /// A triangle of a mesh used as a light (the light's copy).
 pub const LIGHT_TRIANGLE_BYTES: u64 = 36;
+/// A triangle's shading normals (three `Vec3`), on a smooth mesh.
+pub const TRIANGLE_NORMAL_BYTES: u64 = 36;
 /// A byte of an OBJ file while it loads.
 pub const OBJ_BYTES_PER_FILE_BYTE: u64 = 3;
 /// The program, its threads' stacks and the allocator's slack: the resident size of a
@@ -82,6 +84,13 @@ impl MemoryEstimate {
                 .bvh
                 .saturating_add(n.saturating_mul(BVH_BYTES_PER_PRIMITIVE));
         }
+    }
+
+    /// Shading normals of triangles (three unit vectors each, `normals = "smooth"`).
+    pub fn add_triangle_normals(&mut self, triangles: u64) {
+        self.geometry = self
+            .geometry
+            .saturating_add(triangles.saturating_mul(TRIANGLE_NORMAL_BYTES));
     }
 
     pub fn add_light_triangles(&mut self, triangles: u64) {

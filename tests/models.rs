@@ -1,11 +1,22 @@
 //! Meshes as users bring them: placed by a transform (`scale`, `rotate`, `translate`,
-//! `matrix`), each vertex moved in f64 and checked against an f64 oracle written here.
+//! `matrix`), each vertex moved in f64 and checked against an f64 oracle written here;
+//! shaded smooth (`normals = "smooth"`), checked against the sphere an icosphere
+//! approximates, for leaks through the surface, and bit for bit at every width.
 
 mod support;
 
 use glam::{DVec3, Vec3};
+use raytracer::accel::{Accel, AccelKind};
+use raytracer::generate::icosphere;
+use raytracer::geometry::Ray;
+use raytracer::integrator::{scatter, RayCounts, Surface, Tracer};
+use raytracer::material::Material;
+use raytracer::metrics::rel_mse;
+use raytracer::render::render;
+use raytracer::sampling::SampleKey;
 use raytracer::scene::{Overrides, Scene};
-use support::{obj_text, Rng};
+use raytracer::{PacketWidth, RenderSettings};
+use support::{bits, obj_text, Rng};
 
 /// A scene of one mesh object (`mesh.obj`) with `keys` added to it, and a point light.
 fn mesh_scene(keys: &str) -> String {
@@ -202,4 +213,309 @@ fn bad_transforms_are_refused_at_their_line() {
         message.contains("a number or an array of three numbers"),
         "{message}"
     );
+}
+
+/// A unit icosphere of 20 480 triangles (five subdivisions of the icosahedron).
+fn sphere_mesh() -> Vec<[Vec3; 3]> {
+    icosphere(5, Vec3::ZERO, 1.0)
+}
+
+/// OBJ text of `triangles` with a `vn` per corner, `normal(p)` at each vertex p.
+fn obj_with_normals(triangles: &[[Vec3; 3]], normal: impl Fn(Vec3) -> Vec3) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    for t in triangles {
+        for p in t {
+            let n = normal(*p);
+            writeln!(
+                s,
+                "v {:?} {:?} {:?}\nvn {:?} {:?} {:?}",
+                p.x, p.y, p.z, n.x, n.y, n.z
+            )
+            .unwrap();
+        }
+    }
+    for i in 0..triangles.len() {
+        let (a, b, c) = (3 * i + 1, 3 * i + 2, 3 * i + 3);
+        writeln!(s, "f {a}//{a} {b}//{b} {c}//{c}").unwrap();
+    }
+    s
+}
+
+/// The largest angle (radians) between the shading normal at a hit and the sphere's own
+/// normal there (the hit point's direction from the centre), over rays from all sides.
+fn worst_normal_error(scene: &Scene, shading: bool) -> f64 {
+    let mut scene = scene.clone();
+    let accel = Accel::build(&mut scene, AccelKind::Bvh);
+    let tracer = Tracer::new(&scene, &accel, 0);
+    let mut counts = RayCounts::default();
+    let mut rng = Rng(99);
+    let mut worst = 0.0f64;
+    let mut hits = 0;
+    for _ in 0..4000 {
+        let origin = rng.unit_vector() * 3.0;
+        let target = rng.unit_vector() * 0.7;
+        let ray = Ray::new(origin, (target - origin).normalize());
+        let Some(hit) = tracer.closest_hit(&ray, &mut counts) else {
+            continue;
+        };
+        hits += 1;
+        let s = tracer.surface(&ray, &hit);
+        let n = if shading { s.shading } else { s.normal };
+        let radial = s.point.point.as_dvec3().normalize();
+        worst = worst.max(n.as_dvec3().angle_between(radial));
+    }
+    assert!(hits > 3000, "{hits} rays hit the sphere");
+    worst
+}
+
+fn sphere_scene(object: &str) -> String {
+    format!(
+        r#"
+ambient = [0.1, 0.1, 0.1]
+[camera]
+width = 64
+samples_per_pixel = 4
+look_from = [0, 0, 3]
+vfov = 50
+[materials.white]
+type = "phong"
+albedo = [0.8, 0.7, 0.6]
+shininess = 30
+[materials.lamp]
+type = "light"
+color = [1, 1, 1]
+[[objects]]
+type = "sphere"
+center = [2, 3, 4]
+radius = 0.1
+material = "lamp"
+[[objects]]
+material = "white"
+{object}
+"#
+    )
+}
+
+#[test]
+fn smooth_normals_of_an_icosphere_are_the_spheres() {
+    let mesh = sphere_mesh();
+    let smooth = "type = \"mesh\"\npath = \"mesh.obj\"\nnormals = \"smooth\"";
+    let flat = "type = \"mesh\"\npath = \"mesh.obj\"";
+    // Area-weighted normals computed at load (the file has no `vn`).
+    let computed =
+        support::scene_with_files(&sphere_scene(smooth), &[("mesh.obj", obj_text(&mesh))]);
+    let from_file = support::scene_with_files(
+        &sphere_scene(smooth),
+        &[("mesh.obj", obj_with_normals(&mesh, |p| p.normalize()))],
+    );
+    let faceted = support::scene_with_files(&sphere_scene(flat), &[("mesh.obj", obj_text(&mesh))]);
+    let (computed_error, file_error) = (
+        worst_normal_error(&computed, true),
+        worst_normal_error(&from_file, true),
+    );
+    assert!(computed_error < 1e-3, "computed normals: {computed_error}");
+    assert!(file_error < 1e-3, "the file's normals: {file_error}");
+    // The facets' own normals are 10x further off: the test sees the difference.
+    let flat_error = worst_normal_error(&faceted, true);
+    assert!(flat_error > 1e-2, "flat: {flat_error}");
+    // The geometric normal of a smooth mesh stays the facet's.
+    assert_eq!(worst_normal_error(&computed, false), flat_error);
+}
+
+#[test]
+fn a_smooth_icosphere_renders_as_the_sphere() {
+    let mesh = sphere_mesh();
+    let smooth = "type = \"mesh\"\npath = \"mesh.obj\"\nnormals = \"smooth\"";
+    let flat = "type = \"mesh\"\npath = \"mesh.obj\"";
+    let analytic = support::scene_from_toml(&sphere_scene(
+        "type = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1",
+    ));
+    let files = [("mesh.obj", obj_text(&mesh))];
+    let smooth = support::scene_with_files(&sphere_scene(smooth), &files);
+    let flat = support::scene_with_files(&sphere_scene(flat), &files);
+    let reference = support::render_film(&analytic, 2);
+    let error = |scene: &Scene| rel_mse(&support::render_film(scene, 2).pixels, &reference.pixels);
+    let (smooth_error, flat_error) = (error(&smooth), error(&flat));
+    assert!(smooth_error < 0.01, "smooth: relMSE {smooth_error}");
+    // The facets' highlights and shading steps: the bound is no formality.
+    assert!(
+        flat_error > 2.0 * smooth_error,
+        "flat {flat_error}, smooth {smooth_error}"
+    );
+}
+
+/// A 4x4 sheet at z = 0 facing +z whose vertex normals lean 80° towards +x, lit by a
+/// point light below it, seen from above.
+fn leaning_sheet() -> String {
+    let lean = Vec3::new(80f32.to_radians().sin(), 0.0, 80f32.to_radians().cos());
+    let sheet = [
+        [
+            Vec3::new(-2.0, -2.0, 0.0),
+            Vec3::new(2.0, -2.0, 0.0),
+            Vec3::new(2.0, 2.0, 0.0),
+        ],
+        [
+            Vec3::new(-2.0, -2.0, 0.0),
+            Vec3::new(2.0, 2.0, 0.0),
+            Vec3::new(-2.0, 2.0, 0.0),
+        ],
+    ];
+    obj_with_normals(&sheet, |_| lean)
+}
+
+#[test]
+fn no_light_reaches_a_smooth_surface_from_behind_it() {
+    let scene_text = |normals: &str| {
+        format!(
+            r#"
+ambient = [0.2, 0.2, 0.2]
+[camera]
+width = 16
+samples_per_pixel = 1
+look_from = [0, 0, 3]
+look_at = [0, 0, 0]
+vfov = 40
+[materials.white]
+type = "phong"
+albedo = [1, 1, 1]
+shininess = 1
+[materials.lamp]
+type = "light"
+color = [1, 1, 1]
+[[objects]]
+type = "sphere"
+center = [1.5, 0, -0.5]
+radius = 0.01
+material = "lamp"
+[[objects]]
+type = "mesh"
+path = "sheet.obj"
+material = "white"
+normals = "{normals}"
+"#
+        )
+    };
+    let files = [("sheet.obj", leaning_sheet())];
+    // The light is below the sheet; its shading normals lean towards it (N·L > 0 for
+    // many pixels), but the surface faces away: every pixel is the ambient term alone,
+    // 1 · (0.5 · 0.2), with no diffuse or specular light. (Flat, the original's
+    // specular term, not gated by N·L, reaches through the open sheet.)
+    for normals in ["smooth"] {
+        let scene = support::scene_with_files(&scene_text(normals), &files);
+        for width in PacketWidth::ALL {
+            let settings = RenderSettings {
+                packet_width: width,
+                ..RenderSettings::new(0)
+            };
+            let mut scene = scene.clone();
+            let accel = Accel::build(&mut scene, AccelKind::Bvh);
+            let film = render(&scene, &accel, &settings, &|| {}).unwrap().film;
+            for p in &film.pixels {
+                assert_eq!(*p, Vec3::splat(0.5 * 0.2), "{normals}, {width:?}");
+            }
+        }
+    }
+}
+
+#[test]
+fn bounces_off_a_smooth_surface_leave_on_its_side() {
+    // The geometric normal faces the ray (+z); the shading normal leans 80° off it, so
+    // about the shading normal alone many directions would cross the surface.
+    let lean = Vec3::new(80f32.to_radians().sin(), 0.0, 80f32.to_radians().cos());
+    let s = Surface {
+        point: raytracer::geometry::spawn::ErrorPoint {
+            point: Vec3::ZERO,
+            error: Vec3::ZERO,
+        },
+        normal: Vec3::Z,
+        shading: lean,
+        front_face: true,
+        object: 0,
+    };
+    let mut left = [0usize; 3];
+    for (m, material) in [
+        Material::Diffuse { albedo: Vec3::ONE },
+        Material::Metal {
+            albedo: Vec3::ONE,
+            fuzz: 0.5,
+        },
+        Material::Dielectric { index: 1.5 },
+    ]
+    .iter()
+    .enumerate()
+    {
+        let mut rng = Rng(5);
+        for sample in 0..2000 {
+            let dir = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), -1.0).normalize();
+            let ray = Ray::new(Vec3::new(0.0, 0.0, 1.0), dir);
+            let key = SampleKey::new(0, 0, 0, sample);
+            let Some((_, d)) = scatter(material, &ray, &s, key, 0) else {
+                continue;
+            };
+            assert!(d.is_finite() && d.dot(Vec3::Z) != 0.0, "{material:?}: {d}");
+            if d.z > 0.0 {
+                left[m] += 1;
+            }
+            if !matches!(material, Material::Dielectric { .. }) {
+                assert!(d.z > 0.0, "{material:?} crossed the surface: {d}");
+            }
+        }
+    }
+    assert!(left[0] > 1900 && left[1] > 1000, "{left:?}");
+}
+
+#[test]
+fn smooth_and_placed_meshes_render_the_same_bits_at_every_width_and_thread_count() {
+    let mesh = icosphere(3, Vec3::ZERO, 1.0);
+    let keys = r#"normals = "smooth"
+scale = [1, 0.7, 1.2]
+rotate = [{ axis = [1, 0, 1], degrees = 33 }]
+translate = [0.1, 0, 0]"#;
+    let text = mesh_scene(keys).replace(
+        "[materials.white]",
+        "[materials.glass]\ntype = \"dielectric\"\nindex = 1.5\n[materials.white]",
+    );
+    // The placed sphere in white (Phong), and in glass beside it (path-traced bounces).
+    let text = format!(
+        "{text}\n[[objects]]\ntype = \"mesh\"\npath = \"mesh.obj\"\nmaterial = \"glass\"\nnormals = \"smooth\"\ntranslate = [2, 0, 0]\n"
+    );
+    let scene = support::scene_with_files(&text, &[("mesh.obj", obj_text(&mesh))]);
+    assert!(!scene.triangles.normals.is_empty());
+    let mut scene = scene;
+    let accel = Accel::build(&mut scene, AccelKind::Bvh);
+    let film = |width: PacketWidth, threads: usize| {
+        let settings = RenderSettings {
+            packet_width: width,
+            ..RenderSettings::new(0)
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        bits(
+            &pool
+                .install(|| render(&scene, &accel, &settings, &|| {}))
+                .unwrap()
+                .film,
+        )
+    };
+    let reference = film(PacketWidth::Scalar, 1);
+    for width in PacketWidth::ALL {
+        assert!(film(width, 2) == reference, "{width:?} differs");
+    }
+}
+
+#[test]
+fn a_bad_normal_is_refused_at_its_line_when_smooth() {
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn nan 0 1\nf 1//1 2//2 3//1\n";
+    let message = refused(&mesh_scene("normals = \"smooth\""), text);
+    assert!(
+        message.contains("mesh.obj:5") && message.contains("normal"),
+        "{message}"
+    );
+    // Flat shading never reads the normals.
+    let flat = support::scene_with_files(&mesh_scene(""), &[("mesh.obj", text.to_string())]);
+    assert_eq!(flat.triangles.len(), 1);
+    assert!(flat.triangles.normals.is_empty());
 }

@@ -735,6 +735,7 @@ material = "ball"
             let s = Surface {
                 point,
                 normal: Vec3::Y,
+                shading: Vec3::Y,
                 front_face: true,
                 object: 0,
             };

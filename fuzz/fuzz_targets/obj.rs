@@ -1,27 +1,43 @@
-//! OBJ text → `parse_obj`. Refused with an error naming the file, or triangles that are
-//! finite, within the coordinate limit and of non-zero area; never a panic.
+//! OBJ text → `parse_obj` and `parse_obj_smooth`. Refused with an error naming the file,
+//! or triangles that are finite, within the coordinate limit and of non-zero area, and
+//! (smooth) a unit normal at every corner; never a panic.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use raytracer::geometry::triangle::is_proper_triangle;
 use raytracer::scene::limits::MAX_COORDINATE;
-use raytracer::scene::mesh::parse_obj;
+use raytracer::scene::mesh::{parse_obj, parse_obj_smooth};
 
 fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else {
         return;
     };
-    match parse_obj("fuzz.obj", text) {
-        Ok(mesh) => {
-            assert!(!mesh.triangles.is_empty());
-            for &t in &mesh.triangles {
-                assert!(is_proper_triangle(t));
-                let inside = t
-                    .iter()
-                    .all(|p| p.abs().max_element() as f64 <= MAX_COORDINATE);
-                assert!(inside, "{t:?}");
+    for smooth in [false, true] {
+        let parsed = if smooth {
+            parse_obj_smooth("fuzz.obj", text)
+        } else {
+            parse_obj("fuzz.obj", text)
+        };
+        match parsed {
+            Ok(mesh) => {
+                assert!(!mesh.triangles.is_empty());
+                for &t in &mesh.triangles {
+                    assert!(is_proper_triangle(t));
+                    let inside = t
+                        .iter()
+                        .all(|p| p.abs().max_element() as f64 <= MAX_COORDINATE);
+                    assert!(inside, "{t:?}");
+                }
+                if smooth {
+                    assert_eq!(mesh.normals.len(), mesh.triangles.len());
+                    for n in mesh.normals.iter().flatten() {
+                        assert!((n.length() - 1.0).abs() < 1e-5, "{n}");
+                    }
+                } else {
+                    assert!(mesh.normals.is_empty());
+                }
             }
+            Err(e) => assert!(e.to_string().starts_with("fuzz.obj"), "{e}"),
         }
-        Err(e) => assert!(e.to_string().starts_with("fuzz.obj"), "{e}"),
     }
 });

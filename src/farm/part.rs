@@ -579,12 +579,21 @@ pub fn scene_digest(scene: &Scene) -> String {
         c,
         id,
         object,
+        normals,
     } = triangles;
     let order = id_order(id);
     for (label, axes) in [("triangle a", a), ("b", b), ("c", c)] {
         for v in axes {
             h.f32s(label, v.len(), in_order(v, &order));
         }
+    }
+    // Only where a mesh is smooth: the digests of other scenes stay as they were.
+    if !normals.is_empty() {
+        h.vec3s(
+            "triangle normals",
+            normals.len() * 3,
+            in_order(normals, &order).flatten(),
+        );
     }
     h.u32s("triangle id", id.len(), in_order(id, &order));
     h.u32s("triangle object", object.len(), in_order(object, &order));

@@ -19,6 +19,10 @@ pub struct TrianglePool {
     pub id: Vec<u32>,
     /// The scene object each triangle belongs to (all triangles of a mesh share one).
     pub object: Vec<u32>,
+    /// The unit shading normals of each triangle's corners a, b, c, interpolated across
+    /// it (a mesh with `normals = "smooth"`); zero for a flat triangle. Empty when no
+    /// triangle is smooth.
+    pub normals: Vec<[Vec3; 3]>,
 }
 
 impl TrianglePool {
@@ -38,6 +42,25 @@ impl TrianglePool {
         }
         self.id.push(id);
         self.object.push(object);
+        if !self.normals.is_empty() {
+            self.normals.push([Vec3::ZERO; 3]);
+        }
+    }
+
+    /// `push` a triangle shaded with the unit corner normals `normals`.
+    pub fn push_smooth(&mut self, triangle: [Vec3; 3], normals: [Vec3; 3], id: u32, object: u32) {
+        // The flat triangles before it get zero normals.
+        self.normals.resize(self.len(), [Vec3::ZERO; 3]);
+        self.normals.push(normals);
+        let smooth = std::mem::take(&mut self.normals);
+        self.push(triangle, id, object);
+        self.normals = smooth;
+    }
+
+    /// Triangle `i` has shading normals of its own.
+    #[inline]
+    pub fn is_smooth(&self, i: usize) -> bool {
+        self.normals.get(i).is_some_and(|n| n[0] != Vec3::ZERO)
     }
 
     /// Reorder (see `geometry::permute`).
@@ -52,6 +75,9 @@ impl TrianglePool {
         }
         super::permute(&mut self.id, order);
         super::permute(&mut self.object, order);
+        if !self.normals.is_empty() {
+            super::permute(&mut self.normals, order);
+        }
     }
 
     #[inline]

@@ -126,8 +126,12 @@ impl RayCounts {
 pub struct Surface {
     /// The hit point, recomputed from the primitive, with its error bound.
     pub point: ErrorPoint,
-    /// Unit geometric normal flipped to face the incoming ray (surfaces are two-sided).
+    /// Unit geometric normal flipped to face the incoming ray (surfaces are two-sided):
+    /// it decides sides and where spawned rays start.
     pub normal: Vec3,
+    /// Unit shading normal on the side of `normal`: `normal` itself but on a smooth
+    /// mesh, where it is the interpolated vertex normal.
+    pub shading: Vec3,
     /// The ray arrived on the side the outward normal points to.
     pub front_face: bool,
     pub object: u32,
@@ -139,10 +143,44 @@ pub struct SurfaceLanes<L> {
     pub point: V3<L>,
     /// The points' error bounds.
     pub error: V3<L>,
-    /// Unit normals facing the rays.
+    /// Unit geometric normals facing the rays: they decide sides and where spawned rays
+    /// start.
     pub normal: V3<L>,
+    /// Unit shading normals, each on the side of its lane's `normal`: the same bits but
+    /// in the lanes of `smooth`.
+    pub shading: V3<L>,
+    /// The lanes on a smooth mesh, whose shading normal is interpolated.
+    pub smooth: u32,
     /// The lanes whose ray arrived on the outward side.
     pub front: u32,
+}
+
+impl<L: Lane> SurfaceLanes<L> {
+    /// Surfaces whose shading normal is their geometric one.
+    #[inline(always)]
+    pub fn flat(point: V3<L>, error: V3<L>, normal: V3<L>, front: u32) -> Self {
+        Self {
+            point,
+            error,
+            normal,
+            shading: normal,
+            smooth: 0,
+            front,
+        }
+    }
+
+    /// A scalar `Surface` as one lane.
+    #[inline(always)]
+    pub fn from_surface(s: &Surface) -> Self {
+        Self {
+            point: V3::splat(s.point.point),
+            error: V3::splat(s.point.error),
+            normal: V3::splat(s.normal),
+            shading: V3::splat(s.shading),
+            smooth: (s.shading != s.normal) as u32,
+            front: s.front_face as u32,
+        }
+    }
 }
 
 impl<L: Lane> SurfaceLanes<L> {
@@ -155,6 +193,7 @@ impl<L: Lane> SurfaceLanes<L> {
                 error: self.error.lane(k),
             },
             normal: self.normal.lane(k),
+            shading: self.shading.lane(k),
             front_face: self.front >> k & 1 != 0,
             object,
         }
@@ -260,13 +299,26 @@ impl<'a> Tracer<'a> {
         self.accel.closest_hit(cx, ray, T_MIN, f32::INFINITY)
     }
 
-    /// Position, facing normal and side of a hit.
+    /// Position, facing normals and side of a hit (`surface_lanes`' rules).
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
-        let (point, outward) = self.point_and_outward(hit, ray.at(hit.t));
+        let on_ray = ray.at(hit.t);
+        let (point, outward) = self.point_and_outward(hit, on_ray);
         let (normal, front_face) = face_forward::<f32>(V3::splat(ray.dir), V3::splat(outward));
+        let i = hit.index as usize;
+        let shading = match hit.kind {
+            PrimKind::Triangle if self.scene.triangles.is_smooth(i) => {
+                let pool = &self.scene.triangles;
+                let n = |k: usize| V3::splat(pool.normals[i][k]);
+                let [a, b, c] = pool.vertices(i).map(V3::splat);
+                let s = smooth_normal::<f32>(a, b, c, [n(0), n(1), n(2)], V3::splat(on_ray));
+                on_side(s, normal)
+            }
+            _ => normal,
+        };
         Surface {
             point,
             normal: normal.lane(0),
+            shading: shading.lane(0),
             front_face,
             object: hit.object,
         }
@@ -374,12 +426,33 @@ impl<'a> Tracer<'a> {
             outward = V3::select(m, n, outward);
         }
         let (normal, front) = face_forward(dir, outward);
-        SurfaceLanes {
-            point,
-            error,
-            normal,
-            front: front.bits(),
+        let mut s = SurfaceLanes::flat(point, error, normal, front.bits());
+        if triangles != 0 && !scene.triangles.normals.is_empty() {
+            let pool = &scene.triangles;
+            let i = own_or_first(&hits.indices(), triangles);
+            let smooth =
+                triangles & (0..L::WIDTH).fold(0, |m, k| m | (pool.is_smooth(i[k]) as u32) << k);
+            if smooth != 0 {
+                let vertex = |p: &[Vec<f32>; 3]| {
+                    V3::new(
+                        L::from_fn(|k| p[0][i[k]]),
+                        L::from_fn(|k| p[1][i[k]]),
+                        L::from_fn(|k| p[2][i[k]]),
+                    )
+                };
+                let corner = |c: usize| V3::from_fn(|k| pool.normals[i[k]][c]);
+                let n = smooth_normal(
+                    vertex(&pool.a),
+                    vertex(&pool.b),
+                    vertex(&pool.c),
+                    [corner(0), corner(1), corner(2)],
+                    on_ray,
+                );
+                s.shading = V3::select(L::Mask::from_bits(smooth), on_side(n, normal), normal);
+                s.smooth = smooth;
+            }
         }
+        s
     }
 
     /// The colour a ray sees, as a camera sees it (path-traced materials continue the
@@ -400,12 +473,7 @@ impl<'a> Tracer<'a> {
         vertex: u32,
         counts: &mut RayCounts,
     ) -> Vec3 {
-        let surface = SurfaceLanes {
-            point: V3::splat(s.point.point),
-            error: V3::splat(s.point.error),
-            normal: V3::splat(s.normal),
-            front: s.front_face as u32,
-        };
+        let surface = SurfaceLanes::from_surface(s);
         let keys = KeyLanes::from_keys(&[key]);
         let view = -V3::<f32>::splat(ray.dir);
         self.phong_lanes(
@@ -485,6 +553,52 @@ pub fn triangle_point<L: Lane>(
     let rcp = L::splat(1.0) / nn.sqrt();
     let ok = rcp.abs().lt(L::splat(f32::INFINITY)) & rcp.gt(L::splat(0.0));
     (p, e, V3::select(ok, n.scale(rcp), V3::splat(Vec3::Y)))
+}
+
+/// The shading normal of a smooth triangle a, b, c with unit corner normals `n` at
+/// `on_ray`: the corner normals weighted by the point's barycentric coordinates
+/// (`planar_point`'s α and β) and normalised (`normals = "smooth"`).
+#[inline(always)]
+pub fn smooth_normal<L: Lane>(a: V3<L>, b: V3<L>, c: V3<L>, n: [V3<L>; 3], on_ray: V3<L>) -> V3<L> {
+    let (u, v) = (b - a, c - a);
+    let cross = u.cross(v);
+    let nn = cross.dot(cross);
+    let w = V3::new(cross.x / nn, cross.y / nn, cross.z / nn);
+    let hp = on_ray - a;
+    let alpha = w.dot(hp.cross(v));
+    let beta = w.dot(u.cross(hp));
+    let gamma = L::splat(1.0) - alpha - beta;
+    let s = n[0].scale(gamma) + n[1].scale(alpha) + n[2].scale(beta);
+    // Corner normals that cancel (opposed vertex normals): the geometric one.
+    let unit = normalize_or_zero(s);
+    let none = unit.dot(unit).eq(L::splat(0.0));
+    V3::select(none, cross.scale(L::splat(1.0) / nn.sqrt()), unit)
+}
+
+/// `n` flipped, where needed, onto the side of `facing` (a shading normal onto the side
+/// of the geometric normal that faces the ray: vertex normals may be wound either way).
+#[inline(always)]
+pub fn on_side<L: Lane>(n: V3<L>, facing: V3<L>) -> V3<L> {
+    V3::select(n.dot(facing).lt(L::splat(0.0)), -n, n)
+}
+
+/// `d` reflected across the plane of `normal` where it points to the side `toward`
+/// says it must not: a direction made about a shading normal that crossed the geometric
+/// surface is brought back to the side it belongs to (energy kept, no leak through the
+/// surface). `toward` holds the lanes whose direction must leave on `normal`'s side;
+/// the others must go through. Only the lanes of `lanes` change.
+#[inline(always)]
+pub fn onto_side<L: Lane>(d: V3<L>, normal: V3<L>, toward: u32, lanes: u32) -> V3<L> {
+    if lanes == 0 {
+        return d;
+    }
+    let dn = d.dot(normal);
+    let out = dn.gt(L::splat(0.0)).bits();
+    let wrong = lanes & ((toward & !out) | (!toward & dn.ge(L::splat(0.0)).bits()));
+    if wrong == 0 {
+        return d;
+    }
+    V3::select(L::Mask::from_bits(wrong), d - normal.scale(dn + dn), d)
 }
 
 /// glam's `Vec3::normalize`, lane-wise: v · (1/√(v·v)).
@@ -766,6 +880,7 @@ mod tests {
                 error: Vec3::ZERO,
             },
             normal: Vec3::Z,
+            shading: Vec3::Z,
             front_face: true,
             object: 0,
         };

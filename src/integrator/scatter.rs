@@ -4,7 +4,7 @@
 //! total internal reflection or with Schlick's probability, else refract by Snell's law),
 //! as the original program scatters.
 
-use super::{normalize, normalize_or_zero, Surface, SurfaceLanes};
+use super::{normalize, normalize_or_zero, onto_side, Surface, SurfaceLanes};
 use crate::geometry::Ray;
 use crate::lanes::math::sin_cos_turns;
 use crate::lanes::{Lane, Mask, V3};
@@ -56,7 +56,9 @@ pub(super) fn scatter_lanes<L: Lane>(
     keys: &KeyLanes,
     vertex: u32,
 ) -> Bounce<L> {
-    let n = s.normal;
+    // Directions are made about the shading normal; on a smooth mesh one that crosses
+    // the geometric surface is reflected back across it (`onto_side`).
+    let n = s.shading;
     let mut out = Bounce {
         attenuation: m.albedo,
         dir: n,
@@ -73,6 +75,7 @@ pub(super) fn scatter_lanes<L: Lane>(
             let tiny = L::splat(1e-8);
             let vanishes = d.x.abs().lt(tiny) & d.y.abs().lt(tiny) & d.z.abs().lt(tiny);
             let d = V3::select(vanishes, n, normalize(d));
+            let d = onto_side(d, s.normal, m.diffuse, s.smooth & m.diffuse);
             out.dir = V3::select(L::Mask::from_bits(m.diffuse), d, out.dir);
         }
         if m.metal != 0 {
@@ -81,6 +84,7 @@ pub(super) fn scatter_lanes<L: Lane>(
             let reflected = normalize(reflect_lanes(dir, n));
             let d = normalize_or_zero(reflected + r.scale(m.parameter));
             let out_of_surface = d.dot(n).gt(L::splat(0.0)).bits() & m.metal;
+            let d = onto_side(d, s.normal, m.metal, s.smooth & out_of_surface);
             out.dir = V3::select(L::Mask::from_bits(m.metal), d, out.dir);
             out.scattered |= out_of_surface;
         }
@@ -102,6 +106,7 @@ pub(super) fn scatter_lanes<L: Lane>(
         let refracted = dir.scale(ratio) + n.scale(ratio * cos_i - k.sqrt());
         let reflect = reflects | k.lt(L::splat(0.0));
         let d = normalize(V3::select(reflect, reflect_lanes(dir, n), refracted));
+        let d = onto_side(d, s.normal, reflect.bits(), s.smooth & m.dielectric);
         let lanes = L::Mask::from_bits(m.dielectric);
         out.dir = V3::select(lanes, d, out.dir);
         out.attenuation = V3::select(lanes, V3::splat(Vec3::ONE), out.attenuation);
@@ -133,12 +138,7 @@ pub fn scatter(
         metal: (class == 1) as u32,
         dielectric: (class == 2) as u32,
     };
-    let surface = SurfaceLanes {
-        point: V3::splat(s.point.point),
-        error: V3::splat(s.point.error),
-        normal: V3::splat(s.normal),
-        front: s.front_face as u32,
-    };
+    let surface = SurfaceLanes::from_surface(s);
     let keys = KeyLanes::from_keys(&[key]);
     let b = scatter_lanes(V3::splat(ray.dir), &surface, &m, &keys, vertex);
     (b.scattered != 0).then(|| (b.attenuation.lane(0), b.dir.lane(0)))

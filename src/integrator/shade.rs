@@ -21,8 +21,8 @@
 
 use super::scatter::{scatter_lanes, ScatterLanes};
 use super::{
-    direction_to, mirror_direction, mirror_fresnel, own_or_first, pow_is_zero, specular_cosine,
-    PhongLanes, RayCounts, SurfaceLanes, Tracer, T_MIN,
+    direction_to, mirror_direction, mirror_fresnel, onto_side, own_or_first, pow_is_zero,
+    specular_cosine, PhongLanes, RayCounts, SurfaceLanes, Tracer, T_MIN,
 };
 use crate::accel::cull::Cull;
 use crate::accel::packet::{PacketHits, RayPacket, MAX_WIDTH};
@@ -539,11 +539,14 @@ impl Tracer<'_> {
             if mirrors != 0 {
                 // PhongMirror: (1 − F) of the local colour now, F of what the mirror
                 // direction sees next.
-                let f = mirror_fresnel(dir, s.normal, gather(&t.index, hits, mirrors));
+                let f = mirror_fresnel(dir, s.shading, gather(&t.index, hits, mirrors));
                 let one_minus_f = L::splat(1.0) - f;
                 color = add_weighted(color, weight, local.scale(one_minus_f), mirrors);
                 weight = V3::select(L::Mask::from_bits(mirrors), weight.scale(f), weight);
-                let reflected = mirror_direction(dir, s.normal);
+                let mut reflected = mirror_direction(dir, s.shading);
+                if s.smooth & mirrors != 0 {
+                    reflected = onto_side(reflected, s.normal, mirrors, s.smooth & mirrors);
+                }
                 let m = L::Mask::from_bits(mirrors);
                 next_dir = V3::select(m, reflected, next_dir);
                 next_origin = V3::select(
@@ -621,7 +624,7 @@ impl Tracer<'_> {
         // nothing: the tests it saves cost as much as the boxes).
         let boxes = (self.shadow_boxes.as_ref()).filter(|_| self.specialize && L::WIDTH > 1);
         let origins = boxes.map(|_| origins_box(s.point, s.error, lanes));
-        let n_dot_v = s.normal.dot(view);
+        let n_dot_v = s.shading.dot(view);
         // The shadow rays' origins on either side of the surfaces, when a light is
         // sampled more than once (`spawn_origins`): then a select per sample, not a
         // spawn. (One lane gains nothing: its spawn is a branch.)
@@ -642,7 +645,14 @@ impl Tracer<'_> {
                 if candidates == 0 {
                     continue;
                 }
-                let n_dot_l = s.normal.dot(l);
+                let n_dot_l = s.shading.dot(l);
+                // The side of the geometric surface the light sample is on: `n_dot_l`
+                // itself where the shading normal is the geometric one.
+                let side = if s.smooth != 0 {
+                    s.normal.dot(l)
+                } else {
+                    n_dot_l
+                };
                 let r_dot_v = specular_cosine(n_dot_l, n_dot_v, l.dot(view));
                 // The specular term, made once and only where it can be other than +0
                 // (`pow_is_zero`): zero lanes need no pow.
@@ -663,12 +673,19 @@ impl Tracer<'_> {
                     counts.shadow_culled += nothing.count_ones() as u64;
                     traced &= !nothing;
                 }
+                // On a smooth mesh a sample behind the geometric surface is in its
+                // shadow, whatever the shading normal says: the mesh hides it (the
+                // terminator follows the facets), and no shadow ray starts on the far
+                // side of an open mesh to see a light the surface faces away from.
+                if s.smooth != 0 {
+                    traced &= !(s.smooth & (!side.gt(L::splat(0.0))).bits());
+                }
                 if traced == 0 {
                     continue;
                 }
                 let origin = match sides {
                     // `spawn_origin`'s side test: l · n is n · l, bit for bit.
-                    Some([front, back]) => V3::select(n_dot_l.lt(L::splat(0.0)), back, front),
+                    Some([front, back]) => V3::select(side.lt(L::splat(0.0)), back, front),
                     None => spawn_origin(s.point, s.error, s.normal, l),
                 };
                 let visible = self.light_visible_lanes(origin, l, traced, light, among, counts);

@@ -1,9 +1,10 @@
 //! `compile`: a scene description checked value by value and turned into the
 //! render-ready `Scene` (boxes into quads, meshes into triangles, ids in file order).
 
-use super::desc::{AspectDesc, MaterialDesc, ObjectDesc, SceneDesc};
+use super::desc::{AspectDesc, MaterialDesc, NormalsDesc, ObjectDesc, SceneDesc};
 use super::input::ReadError;
 use super::limits::{SampleBound, MAX_CAMERA_COORDINATE, MAX_COORDINATE};
+use super::mesh::MeshTriangles;
 use super::transform::Transform;
 use super::{
     builtin, desc, input, limits, mesh, Features, Light, LightShape, Overrides, Scene, SceneSource,
@@ -267,6 +268,7 @@ pub fn compile_within(
                 rotate,
                 translate,
                 matrix,
+                normals,
                 ..
             } => {
                 if *subdivide > MAX_SUBDIVIDE {
@@ -285,11 +287,14 @@ pub fn compile_within(
                         }
                         other => other,
                     })?;
-                let mut mesh = mesh::parse_obj(&display, &text)?;
+                let mut mesh = match normals {
+                    NormalsDesc::Flat => mesh::parse_obj(&display, &text)?,
+                    NormalsDesc::Smooth => mesh::parse_obj_smooth(&display, &text)?,
+                };
                 drop(text);
                 degenerate_triangles += mesh.degenerate;
                 if !transform.is_identity() {
-                    degenerate_triangles += place_mesh(&mut mesh.triangles, &transform)
+                    degenerate_triangles += place_mesh(&mut mesh, &transform)
                         .map_err(|msg| oerr(format!("{display}: {msg}")))?;
                 }
                 // What the subdivided mesh will cost, before it is made.
@@ -299,6 +304,9 @@ pub fn compile_within(
                 if light_radiance.is_some() {
                     after.add_light_triangles(count);
                 }
+                if *normals == NormalsDesc::Smooth {
+                    after.add_triangle_normals(count);
+                }
                 let subdivided = if *subdivide > 0 {
                     format!(", subdivided {subdivide} times")
                 } else {
@@ -307,11 +315,14 @@ pub fn compile_within(
                 budget.check(&after, &format!("{display}: {count} triangles{subdivided}"))?;
                 if *subdivide > 0 {
                     mesh.triangles = crate::generate::subdivide_times(&mesh.triangles, *subdivide);
+                    if !mesh.normals.is_empty() {
+                        // Each child's corner normals interpolate its parent's.
+                        let normals = crate::generate::subdivide_times(&mesh.normals, *subdivide);
+                        mesh.normals = mesh::unit_normals(&mesh.triangles, &normals);
+                    }
                     // Midpoints round to f32: far from the origin a small child may
                     // collapse onto a line, and is dropped like a degenerate face.
-                    let before = mesh.triangles.len();
-                    mesh.triangles.retain(|&t| is_proper_triangle(t));
-                    degenerate_triangles += before - mesh.triangles.len();
+                    degenerate_triangles += mesh.retain(|&t| is_proper_triangle(t));
                     if mesh.triangles.is_empty() {
                         return Err(oerr(format!(
                             "{display}: no usable triangles after subdividing (each rounds \
@@ -319,8 +330,11 @@ pub fn compile_within(
                         )));
                     }
                 }
-                for &tri in &mesh.triangles {
-                    triangles.push(tri, id(), object);
+                for (i, &tri) in mesh.triangles.iter().enumerate() {
+                    match mesh.normals.get(i) {
+                        Some(&n) => triangles.push_smooth(tri, n, id(), object),
+                        None => triangles.push(tri, id(), object),
+                    }
                     bounds = bounds.union(Aabb::from_points(&tri));
                 }
                 LightShape::Triangles(mesh.triangles)
@@ -332,11 +346,14 @@ pub fn compile_within(
             ObjectDesc::Quad { .. } => estimate.add_primitives(0, 1, 0, true),
             ObjectDesc::Triangle { .. } => estimate.add_primitives(0, 0, 1, true),
             ObjectDesc::Box { .. } => estimate.add_primitives(0, 6, 0, true),
-            ObjectDesc::Mesh { .. } => {
+            ObjectDesc::Mesh { normals, .. } => {
                 let n = (next_id - first_id) as u64;
                 estimate.add_primitives(0, 0, n, true);
                 if light_radiance.is_some() {
                     estimate.add_light_triangles(n);
+                }
+                if *normals == NormalsDesc::Smooth {
+                    estimate.add_triangle_normals(n);
                 }
             }
         }
@@ -658,11 +675,18 @@ fn compile_material(m: &MaterialDesc) -> Result<Material, String> {
     })
 }
 
-/// Move a mesh's triangles by `transform` (in f64, each vertex rounded once to f32) and
-/// drop those that round to zero area; how many were dropped. A vertex moved beyond the
-/// coordinate limit, or every triangle dropped, is an error.
-fn place_mesh(triangles: &mut Vec<[Vec3; 3]>, transform: &Transform) -> Result<usize, String> {
-    for tri in triangles.iter_mut() {
+/// Move a mesh's triangles by `transform` (in f64, each vertex rounded once to f32, each
+/// normal by the inverse transpose) and drop those that round to zero area; how many
+/// were dropped. A vertex moved beyond the coordinate limit, or every triangle dropped,
+/// is an error.
+fn place_mesh(mesh: &mut MeshTriangles, transform: &Transform) -> Result<usize, String> {
+    for corners in mesh.normals.iter_mut() {
+        for n in corners.iter_mut() {
+            // A unit normal keeps a direction under a non-singular map.
+            *n = transform.normal(*n).as_vec3();
+        }
+    }
+    for tri in mesh.triangles.iter_mut() {
         for v in tri.iter_mut() {
             let p = transform.point(*v);
             if !p.is_finite() || p.abs().max_element() > MAX_COORDINATE {
@@ -676,14 +700,14 @@ fn place_mesh(triangles: &mut Vec<[Vec3; 3]>, transform: &Transform) -> Result<u
             *v = p.as_vec3();
         }
     }
-    let before = triangles.len();
-    triangles.retain(|&t| is_proper_triangle(t));
-    if triangles.is_empty() {
+    let before = mesh.triangles.len();
+    let dropped = mesh.retain(|&t| is_proper_triangle(t));
+    if mesh.triangles.is_empty() {
         return Err(format!(
             "no usable triangles after the transform (all {before} round to zero area in f32)"
         ));
     }
-    Ok(before - triangles.len())
+    Ok(dropped)
 }
 
 /// Points as the renderer sees them, for messages: `[-2, -3, 1e10], [2, -3, 1e10]`.

@@ -260,7 +260,22 @@ pub enum ObjectDesc {
         /// Four rows of four numbers, instead of `scale`, `rotate` and `translate`.
         #[serde(default)]
         matrix: Option<Vec<Vec<f64>>>,
+        /// The shading normal: the triangle's own, or interpolated vertex normals.
+        #[serde(default)]
+        normals: NormalsDesc,
     },
+}
+
+/// A mesh's `normals`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NormalsDesc {
+    /// Each triangle shaded with its geometric normal (the original program's way).
+    #[default]
+    Flat,
+    /// The file's `vn` normals, or area-weighted vertex normals where it gives none,
+    /// interpolated across each triangle.
+    Smooth,
 }
 
 /// A mesh's `scale`: one number for every axis, or three.

@@ -13,8 +13,9 @@ use super::input;
 use super::limits::MAX_COORDINATE;
 use crate::error::{Error, Result};
 use crate::geometry::triangle::is_proper_triangle;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use std::borrow::Cow;
+use std::collections::HashMap;
 use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
 
@@ -23,7 +24,32 @@ use std::path::{Path, PathBuf};
 #[derive(Debug)]
 pub struct MeshTriangles {
     pub triangles: Vec<[Vec3; 3]>,
+    /// The unit vertex normals of each triangle's corners, when read for smooth shading
+    /// (`parse_obj_smooth`); else empty.
+    pub normals: Vec<[Vec3; 3]>,
     pub degenerate: usize,
+}
+
+impl MeshTriangles {
+    /// Keep the triangles (and their normals) that `keep` accepts; how many went.
+    pub fn retain(&mut self, keep: impl Fn(&[Vec3; 3]) -> bool) -> usize {
+        let before = self.triangles.len();
+        if self.normals.is_empty() {
+            self.triangles.retain(keep);
+        } else {
+            let mut k = 0;
+            for i in 0..before {
+                if keep(&self.triangles[i]) {
+                    self.triangles[k] = self.triangles[i];
+                    self.normals[k] = self.normals[i];
+                    k += 1;
+                }
+            }
+            self.triangles.truncate(k);
+            self.normals.truncate(k);
+        }
+        before - self.triangles.len()
+    }
 }
 
 /// The material libraries an OBJ file names (`mtllib` lines), relative to its directory:
@@ -62,13 +88,28 @@ pub fn material_libraries(obj: &Path) -> Vec<PathBuf> {
 
 /// Parse OBJ text. `path` is only used in messages.
 pub fn parse_obj(path: &str, text: &str) -> Result<MeshTriangles> {
+    read_obj(path, text, false)
+}
+
+/// Parse OBJ text with vertex normals for smooth shading: the file's `vn` normals where
+/// every face vertex names one (each `vn` then must be three finite numbers), else
+/// area-weighted normals: at each vertex position the sum of the cross products of the
+/// triangles that meet there (each twice its triangle's area along its normal), so
+/// vertices at one position share a normal whatever the file's groups or indices. A
+/// normal of no direction falls back to its triangle's own.
+pub fn parse_obj_smooth(path: &str, text: &str) -> Result<MeshTriangles> {
+    read_obj(path, text, true)
+}
+
+fn read_obj(path: &str, text: &str, smooth: bool) -> Result<MeshTriangles> {
     let fail = |line: usize, message: String| Error::Obj {
         path: path.to_string(),
         line,
         message,
     };
     let text = with_lf_line_ends(text);
-    check_obj(&text).map_err(|(line, message)| fail(line, message))?;
+    let faces_name_normals =
+        check_obj(&text, smooth).map_err(|(line, message)| fail(line, message))?;
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
@@ -82,7 +123,9 @@ pub fn parse_obj(path: &str, text: &str) -> Result<MeshTriangles> {
     let (models, _) = tobj::load_obj_buf(&mut reader, &options, |_| Ok(Default::default()))
         .map_err(|e| fail(reader.line(), format!("malformed OBJ ({e})")))?;
     let mut triangles = Vec::new();
+    let mut file_normals = Vec::new();
     let mut degenerate = 0;
+    let use_file_normals = smooth && faces_name_normals;
     for model in &models {
         let mesh = &model.mesh;
         let vertex = |i: u32| {
@@ -93,10 +136,18 @@ pub fn parse_obj(path: &str, text: &str) -> Result<MeshTriangles> {
                 mesh.positions[i + 2],
             )
         };
-        for f in mesh.indices.chunks_exact(3) {
-            let tri = [vertex(f[0]), vertex(f[1]), vertex(f[2])];
+        let normal = |i: u32| {
+            let i = i as usize * 3;
+            Vec3::new(mesh.normals[i], mesh.normals[i + 1], mesh.normals[i + 2])
+        };
+        for (f, face) in mesh.indices.chunks_exact(3).enumerate() {
+            let tri = [vertex(face[0]), vertex(face[1]), vertex(face[2])];
             if is_proper_triangle(tri) {
                 triangles.push(tri);
+                if use_file_normals {
+                    let n = &mesh.normal_indices[3 * f..3 * f + 3];
+                    file_normals.push([normal(n[0]), normal(n[1]), normal(n[2])]);
+                }
             } else {
                 degenerate += 1;
             }
@@ -108,10 +159,53 @@ pub fn parse_obj(path: &str, text: &str) -> Result<MeshTriangles> {
             format!("no usable triangles ({degenerate} degenerate faces)"),
         ));
     }
+    let normals = match (smooth, use_file_normals) {
+        (false, _) => Vec::new(),
+        (true, true) => unit_normals(&triangles, &file_normals),
+        (true, false) => unit_normals(&triangles, &area_weighted_normals(&triangles)),
+    };
     Ok(MeshTriangles {
         triangles,
+        normals,
         degenerate,
     })
+}
+
+/// At each corner the sum, over the triangles that have a vertex at its position (to
+/// the bit), of their cross products (b − a) × (c − a), in f64.
+fn area_weighted_normals(triangles: &[[Vec3; 3]]) -> Vec<[Vec3; 3]> {
+    let key = |p: Vec3| p.to_array().map(f32::to_bits);
+    let mut sums: HashMap<[u32; 3], DVec3> = HashMap::with_capacity(triangles.len());
+    for &[a, b, c] in triangles {
+        let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+        for (p, q, r) in [(a, b, c), (b, c, a), (c, a, b)] {
+            let (e1, e2) = (q - p, r - p);
+            let n = e1.cross(e2) / (e1.length_squared() * e2.length_squared());
+            *sums.entry(key(p.as_vec3())).or_default() += n;
+        }
+    }
+    triangles
+        .iter()
+        .map(|t| t.map(|p| sums[&key(p)].as_vec3()))
+        .collect()
+}
+
+/// `normals` made unit length in f64 (each rounded once to f32); a corner whose normal
+/// has no direction takes its triangle's geometric normal.
+pub(crate) fn unit_normals(triangles: &[[Vec3; 3]], normals: &[[Vec3; 3]]) -> Vec<[Vec3; 3]> {
+    triangles
+        .iter()
+        .zip(normals)
+        .map(|(&[a, b, c], corners)| {
+            let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+            let own = (b - a).cross(c - a).normalize_or_zero();
+            corners.map(|n| {
+                let n = n.as_dvec3();
+                let unit = n / n.length();
+                if unit.is_finite() { unit } else { own }.as_vec3()
+            })
+        })
+        .collect()
 }
 
 /// The text with every lone CR (not followed by LF) made an LF.
@@ -159,9 +253,10 @@ impl BufRead for LineCounter<'_> {
     }
 }
 
-/// Check what tobj would take on trust: vertices and face references. `Err` is
-/// (1-based line, message).
-fn check_obj(text: &str) -> Result<(), (usize, String)> {
+/// Check what tobj would take on trust: vertices and face references, and with `smooth`
+/// the normals. `Ok`: whether every face vertex names a normal (`v//vn`, `v/vt/vn`).
+/// `Err` is (1-based line, message).
+fn check_obj(text: &str, smooth: bool) -> Result<bool, (usize, String)> {
     // Positions, texture coordinates and normals in the whole file (a positive index
     // may name one defined further on; tobj resolves them when the object ends).
     let mut totals = [0usize; 3];
@@ -174,6 +269,7 @@ fn check_obj(text: &str) -> Result<(), (usize, String)> {
         }
     }
     let mut seen = [0usize; 3];
+    let mut faces_name_normals = true;
     for (n, line) in text.split('\n').enumerate() {
         let at = |message: String| (n + 1, message);
         let mut words = line.split_whitespace();
@@ -183,11 +279,19 @@ fn check_obj(text: &str) -> Result<(), (usize, String)> {
                 seen[0] += 1;
             }
             Some("vt") => seen[1] += 1,
-            Some("vn") => seen[2] += 1,
+            Some("vn") => {
+                if smooth {
+                    check_normal(words).map_err(at)?;
+                }
+                seen[2] += 1;
+            }
             Some(statement @ ("f" | "l")) => {
                 let mut count = 0;
                 for word in words {
                     check_reference(word, seen, totals).map_err(at)?;
+                    if statement == "f" {
+                        faces_name_normals &= word.split('/').nth(2).is_some_and(|w| !w.is_empty());
+                    }
                     count += 1;
                 }
                 if statement == "f" && count < 3 {
@@ -197,6 +301,22 @@ fn check_obj(text: &str) -> Result<(), (usize, String)> {
                 }
             }
             _ => {}
+        }
+    }
+    Ok(faces_name_normals)
+}
+
+/// A `vn` line's words after `vn`: three numbers, finite in f32.
+fn check_normal<'a>(mut words: impl Iterator<Item = &'a str>) -> Result<(), String> {
+    for _ in 0..3 {
+        let word = words
+            .next()
+            .ok_or("a normal needs three numbers (vn x y z)")?;
+        let x: f32 = word
+            .parse()
+            .map_err(|_| format!("normal '{word}' is not a number"))?;
+        if !x.is_finite() {
+            return Err(format!("normal '{word}' is not a finite number in f32"));
         }
     }
     Ok(())

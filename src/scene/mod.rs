@@ -119,6 +119,7 @@ impl Scene {
             self.triangles.len() as u64,
             bvh,
         );
+        e.add_triangle_normals(self.triangles.normals.len() as u64);
         for light in &self.lights {
             if let LightShape::Triangles(t) = &light.shape {
                 e.add_light_triangles(t.len() as u64);
