@@ -42,10 +42,10 @@ pub enum Error {
         message: String,
     },
 
-    /// An OBJ problem; `line` is 0 when the problem has no single line.
+    /// An OBJ or MTL problem; `line` is 0 when the problem has no single line.
     #[error("{}: {message}", if *line > 0 { format!("{path}:{line}") } else { path.clone() })]
     Obj {
-        /// The OBJ file.
+        /// The OBJ or MTL file.
         path: String,
         /// 1-based line, or 0.
         line: usize,

@@ -519,3 +519,164 @@ fn a_bad_normal_is_refused_at_its_line_when_smooth() {
     assert_eq!(flat.triangles.len(), 1);
     assert!(flat.triangles.normals.is_empty());
 }
+
+/// A mesh of three groups: faces before any `usemtl` (the object's material), a red
+/// Phong group and a lamp group, with its MTL library.
+fn mtl_files(library: &str) -> Vec<(&'static str, String)> {
+    let tri = |z: f32| {
+        obj_text(&[[
+            Vec3::new(-1.0, -1.0, z),
+            Vec3::new(1.0, -1.0, z),
+            Vec3::new(0.0, 1.0, z),
+        ]])
+    };
+    // Three single-triangle OBJ texts joined: each `v` block is followed by its face,
+    // whose indices count from the file's start.
+    let obj = format!(
+        "mtllib parts.mtl\n{}usemtl red\n{}usemtl lamp\n{}",
+        tri(0.0),
+        tri(-1.0).replace("f 1 2 3", "f 4 5 6"),
+        tri(-2.0).replace("f 1 2 3", "f 7 8 9"),
+    );
+    vec![("mesh.obj", obj), ("parts.mtl", library.to_string())]
+}
+
+const PARTS_MTL: &str = "newmtl red\nKd 0.8 0.1 0.1\nKs 0.2 0.2 0.2\nNs 40\nmap_Kd red.png\n\
+                         newmtl lamp\nKe 2 2 2\nmap_Kd a.png\nmap_Ks b.png\n";
+
+#[test]
+fn mtl_materials_map_onto_the_renderers_by_the_table() {
+    let scene =
+        support::scene_with_files(&mesh_scene("materials = \"mtl\""), &mtl_files(PARTS_MTL));
+    // The object's own material for the faces before any usemtl, then one object a
+    // material of the library, in its order.
+    let material_of = |z: f32| {
+        let i = (0..scene.triangles.len())
+            .find(|&i| scene.triangles.vertices(i)[0].z == z)
+            .unwrap();
+        *scene.material_of(scene.triangles.object[i])
+    };
+    assert!(matches!(material_of(0.0), Material::Phong(p) if p.albedo == Vec3::splat(0.8)));
+    match material_of(-1.0) {
+        Material::Phong(p) => {
+            assert_eq!(
+                (p.albedo, p.shininess, p.kd),
+                (Vec3::new(0.8, 0.1, 0.1), 40.0, 1.0)
+            );
+            // mean(Ks) / mean(Kd) = 0.2 / (1 / 3).
+            assert!((p.ks - 0.6).abs() < 1e-6, "{}", p.ks);
+        }
+        other => panic!("{other:?}"),
+    }
+    let lamp = Material::Light {
+        color: Vec3::splat(2.0),
+        intensity: 1.0,
+    };
+    assert_eq!(material_of(-2.0), lamp);
+    // The lamp's triangle is a light of its own, beside the scene's point light.
+    assert_eq!(scene.lights.len(), 2);
+    // Each unused statement is named once, with its first line.
+    assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
+    let w = &scene.warnings[0];
+    assert!(
+        w.ends_with("parts.mtl: not used by the renderer: map_Kd (line 5), map_Ks (line 9)"),
+        "{w}"
+    );
+    // The same bits at every width.
+    let mut scene = scene;
+    let accel = Accel::build(&mut scene, AccelKind::Bvh);
+    let films: Vec<_> = PacketWidth::ALL
+        .into_iter()
+        .map(|packet_width| {
+            let settings = RenderSettings {
+                packet_width,
+                ..RenderSettings::new(0)
+            };
+            bits(&render(&scene, &accel, &settings, &|| {}).unwrap().film)
+        })
+        .collect();
+    assert!(films.iter().all(|f| *f == films[0]));
+}
+
+#[test]
+fn mtl_errors_name_the_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let load = |scene: &str, files: &[(&str, String)]| {
+        for (name, body) in files {
+            std::fs::write(dir.path().join(name), body).unwrap();
+        }
+        let path = dir.path().join("scene.toml");
+        std::fs::write(&path, scene).unwrap();
+        match Scene::load(path.to_str().unwrap(), Overrides::default()) {
+            Ok(_) => panic!("loaded:\n{scene}"),
+            Err(e) => e
+                .to_string()
+                .replace(&format!("{}/", dir.path().display()), ""),
+        }
+    };
+    let scene = mesh_scene("materials = \"mtl\"");
+    let mut files = mtl_files(PARTS_MTL);
+    // A missing library: named, at the OBJ's mtllib line.
+    files[1].0 = "other.mtl";
+    let message = load(&scene, &files);
+    assert!(
+        message.starts_with("mesh.obj:1: cannot read material library parts.mtl"),
+        "{message}"
+    );
+    std::fs::remove_file(dir.path().join("other.mtl")).unwrap();
+    // A usemtl that names no material of the library.
+    let mut files = mtl_files(PARTS_MTL);
+    files[0].1 = files[0].1.replace("usemtl lamp", "usemtl lump");
+    let message = load(&scene, &files);
+    assert!(
+        message.contains("mesh.obj:") && message.contains("usemtl 'lump'"),
+        "{message}"
+    );
+    // A bad value in the library: its own file and line.
+    let files = mtl_files("newmtl red\nKd 1 1 1\nnewmtl lamp\nNs -4\n");
+    let message = load(&scene, &files);
+    assert!(message.starts_with("parts.mtl:4: Ns"), "{message}");
+    // No library at all: at the scene's `materials` line.
+    let files = [("mesh.obj", obj_text(&random_mesh(2, 1)))];
+    let message = load(&scene, &files);
+    assert!(
+        message.starts_with("scene.toml:22:") && message.contains("names no material library"),
+        "{message}"
+    );
+}
+
+#[test]
+fn a_missing_library_exits_with_code_2_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut files = mtl_files(PARTS_MTL);
+    files.pop();
+    for (name, body) in &files {
+        std::fs::write(dir.path().join(name), body).unwrap();
+    }
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, mesh_scene("materials = \"mtl\"")).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_raytracer"))
+        .arg(&scene)
+        .args(["-q", "-o"])
+        .arg(dir.path().join("out.png"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("parts.mtl"), "{stderr}");
+    assert!(!dir.path().join("out.png").exists());
+    // With the library, the unused statements are a warning, and the render goes on.
+    std::fs::write(dir.path().join("parts.mtl"), PARTS_MTL).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_raytracer"))
+        .arg(&scene)
+        .args(["-q", "-o"])
+        .arg(dir.path().join("out.png"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(
+        stderr.contains("warning:") && stderr.contains("map_Kd (line 5)"),
+        "{stderr}"
+    );
+}

@@ -26,6 +26,9 @@ pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
     let file = super::scene_file(&o.scene)?;
     o.check_outputs_against(&file.input_files())?;
     let renderer = Renderer::new(&file, &o.scene_options).map_err(super::name_the_memory_cap)?;
+    for warning in &renderer.scene().warnings {
+        to_stderr!("warning: {warning}");
+    }
     let built = Instant::now();
     // The region's tiles; a crop outside the image is refused here, before the render.
     let tiles = match o.region {

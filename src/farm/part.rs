@@ -502,6 +502,7 @@ pub fn scene_digest(scene: &Scene) -> String {
         features: _,             // derived from the primitives and materials
         bounds: _,               // derived from the primitives
         degenerate_triangles: _, // left out of the pools
+        warnings: _,             // messages, not pixels
     } = scene;
     let mut h = Hasher::default();
     // Small values as their Debug text (exact: floats print as the shortest text that

@@ -1,10 +1,12 @@
 //! `compile`: a scene description checked value by value and turned into the
 //! render-ready `Scene` (boxes into quads, meshes into triangles, ids in file order).
 
+use super::desc::MeshMaterialsDesc;
 use super::desc::{AspectDesc, MaterialDesc, NormalsDesc, ObjectDesc, SceneDesc};
 use super::input::ReadError;
 use super::limits::{SampleBound, MAX_CAMERA_COORDINATE, MAX_COORDINATE};
 use super::mesh::MeshTriangles;
+use super::mtl;
 use super::transform::Transform;
 use super::{
     builtin, desc, input, limits, mesh, Features, Light, LightShape, Overrides, Scene, SceneSource,
@@ -159,7 +161,7 @@ pub fn compile_within(
             .map_err(|msg| err(at, format!("material '{name}': {msg}")))?;
         material_index.insert(name.as_str(), materials.len() as u32);
         materials.push(material);
-        material_at.push((name.as_str(), at));
+        material_at.push((format!("material '{name}'"), at));
     }
 
     // Objects.
@@ -171,11 +173,14 @@ pub fn compile_within(
     let mut bounds = Aabb::EMPTY;
     let mut next_id = 0u32;
     let mut degenerate_triangles = 0;
-    for (object, o) in desc.objects.iter().enumerate() {
+    let mut warnings = Vec::new();
+    for (index, o) in desc.objects.iter().enumerate() {
         let (at, span) = (o.span().start, o.span());
         let o = o.get_ref();
-        let object = object as u32;
-        let what = format!("object {} ({})", object + 1, o.kind_name());
+        // Objects are numbered in file order; a mesh's MTL materials add objects after
+        // it (one a material).
+        let object = object_material.len() as u32;
+        let what = format!("object {} ({})", index + 1, o.kind_name());
         let oerr = |msg: String| err(at, format!("{what}: {msg}"));
         let &m = material_index.get(o.material()).ok_or_else(|| {
             let mut names: Vec<_> = material_index.keys().copied().collect();
@@ -269,6 +274,7 @@ pub fn compile_within(
                 translate,
                 matrix,
                 normals,
+                materials: mesh_materials,
                 ..
             } => {
                 if *subdivide > MAX_SUBDIVIDE {
@@ -287,10 +293,29 @@ pub fn compile_within(
                         }
                         other => other,
                     })?;
-                let mut mesh = match normals {
-                    NormalsDesc::Flat => mesh::parse_obj(&display, &text)?,
-                    NormalsDesc::Smooth => mesh::parse_obj_smooth(&display, &text)?,
+                // The libraries' materials, when the mesh takes its own.
+                let library = match mesh_materials {
+                    MeshMaterialsDesc::Object => None,
+                    MeshMaterialsDesc::Mtl => Some(
+                        read_libraries(source, &display, &text, &mut warnings).map_err(
+                            |e| match e {
+                                Error::Options(message) => err(
+                                    source.key_at(span.clone(), "materials"),
+                                    format!("{what}: {message}"),
+                                ),
+                                other => other,
+                            },
+                        )?,
+                    ),
                 };
+                let names: Option<Vec<String>> = library
+                    .as_ref()
+                    .map(|l| l.iter().map(|m| m.name.clone()).collect());
+                let options = mesh::ObjOptions {
+                    smooth: *normals == NormalsDesc::Smooth,
+                    materials: names.as_deref(),
+                };
+                let mut mesh = mesh::read_obj(&display, &text, options)?;
                 drop(text);
                 degenerate_triangles += mesh.degenerate;
                 if !transform.is_identity() {
@@ -314,12 +339,7 @@ pub fn compile_within(
                 };
                 budget.check(&after, &format!("{display}: {count} triangles{subdivided}"))?;
                 if *subdivide > 0 {
-                    mesh.triangles = crate::generate::subdivide_times(&mesh.triangles, *subdivide);
-                    if !mesh.normals.is_empty() {
-                        // Each child's corner normals interpolate its parent's.
-                        let normals = crate::generate::subdivide_times(&mesh.normals, *subdivide);
-                        mesh.normals = mesh::unit_normals(&mesh.triangles, &normals);
-                    }
+                    mesh.subdivide(*subdivide);
                     // Midpoints round to f32: far from the origin a small child may
                     // collapse onto a line, and is dropped like a degenerate face.
                     degenerate_triangles += mesh.retain(|&t| is_proper_triangle(t));
@@ -330,14 +350,62 @@ pub fn compile_within(
                         )));
                     }
                 }
-                for (i, &tri) in mesh.triangles.iter().enumerate() {
-                    match mesh.normals.get(i) {
-                        Some(&n) => triangles.push_smooth(tri, n, id(), object),
-                        None => triangles.push(tri, id(), object),
-                    }
-                    bounds = bounds.union(Aabb::from_points(&tri));
+                // The triangles of each material in turn, each material's an object
+                // of its own (the faces before any `usemtl` are this object's), so a
+                // light's primitives keep consecutive ids.
+                let mut by_group = vec![Vec::new(); library.as_ref().map_or(1, |l| l.len() + 1)];
+                for i in 0..mesh.triangles.len() {
+                    by_group[mesh.material.get(i).map_or(0, |&g| g as usize)].push(i);
                 }
-                LightShape::Triangles(mesh.triangles)
+                let mut own = Vec::new();
+                for (group, in_group) in by_group.into_iter().enumerate() {
+                    if in_group.is_empty() {
+                        continue;
+                    }
+                    let (owner, radiance) = match &library {
+                        Some(l) if group > 0 => {
+                            let m = &l[group - 1];
+                            let material = mtl::to_material(m);
+                            let owner = object_material.len() as u32;
+                            object_material.push(materials.len() as u32);
+                            material_at
+                                .push((format!("material '{}' of {}", m.name, m.library), at));
+                            materials.push(material);
+                            let radiance = match material {
+                                Material::Light { color, intensity } => Some(color * intensity),
+                                _ => None,
+                            };
+                            (owner, radiance)
+                        }
+                        _ => (object, None),
+                    };
+                    let mut shape = Vec::with_capacity(in_group.len());
+                    let mut first = None;
+                    for i in in_group {
+                        let (tri, primitive) = (mesh.triangles[i], id());
+                        first.get_or_insert(primitive);
+                        match mesh.normals.get(i) {
+                            Some(&n) => triangles.push_smooth(tri, n, primitive, owner),
+                            None => triangles.push(tri, primitive, owner),
+                        }
+                        bounds = bounds.union(Aabb::from_points(&tri));
+                        shape.push(tri);
+                    }
+                    match (owner == object, radiance, first) {
+                        (true, _, _) => own = shape,
+                        (false, Some(radiance), Some(first_id)) => {
+                            estimate.add_light_triangles(shape.len() as u64);
+                            lights.push(Light {
+                                object: owner,
+                                radiance,
+                                shape: LightShape::Triangles(shape),
+                                first_id,
+                            })
+                        }
+                        _ => {}
+                    }
+                }
+                LightShape::Triangles(own)
             }
         };
         // Running totals (a mesh's were added above, before it was made).
@@ -357,7 +425,10 @@ pub fn compile_within(
                 }
             }
         }
-        if let Some(radiance) = light_radiance {
+        // A mesh all of whose faces took materials of its library holds none of the
+        // object's own: no light then.
+        let empty = matches!(&shape, LightShape::Triangles(t) if t.is_empty());
+        if let Some(radiance) = light_radiance.filter(|_| !empty) {
             lights.push(Light {
                 object,
                 radiance,
@@ -383,7 +454,7 @@ pub fn compile_within(
         }
     }
     for (material, (name, at)) in materials.iter().zip(&material_at) {
-        let named = |what: &str| format!("{what} of material '{name}'");
+        let named = |what: &str| format!("{what} of {name}");
         match *material {
             Material::Phong(p) | Material::PhongMirror { phong: p, .. } => bound.phong(
                 ambient.max_element() as f64,
@@ -450,6 +521,7 @@ pub fn compile_within(
         features,
         bounds,
         degenerate_triangles,
+        warnings,
     })
 }
 
@@ -626,6 +698,91 @@ fn read_mesh(
             Ok((display, Cow::Owned(text)))
         }
     }
+}
+
+/// The materials of the libraries an OBJ file names (`mtllib`), for `materials = "mtl"`:
+/// each library read beside the OBJ file (`display`) and parsed (`mtl::parse_mtl`,
+/// its warnings added to `warnings`); a library that cannot be read, a material that
+/// two define, and a `usemtl` that names none of them are errors at the OBJ's line. An
+/// OBJ that names no library is an `Error::Options` (the caller places it at the
+/// scene's `materials` key).
+fn read_libraries(
+    source: &SceneSource,
+    display: &str,
+    text: &str,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<mtl::MtlMaterial>> {
+    let at = |line: usize, message: String| Error::Obj {
+        path: display.to_string(),
+        line,
+        message,
+    };
+    let statements = mesh::material_statements(text);
+    if statements.libraries.is_empty() {
+        return Err(Error::Options(format!(
+            "materials = \"mtl\", but {display} names no material library (mtllib)"
+        )));
+    }
+    let dir = std::path::Path::new(display)
+        .parent()
+        .unwrap_or(std::path::Path::new(""));
+    let mut materials: Vec<mtl::MtlMaterial> = Vec::new();
+    for (name, line) in &statements.libraries {
+        let full = dir.join(name);
+        let shown = full.display().to_string();
+        let library_text =
+            match &source.dir {
+                None => builtin::asset(&shown).map(str::to_string).ok_or_else(|| {
+                    at(
+                        *line,
+                        format!("cannot read material library {shown}: no such built-in asset"),
+                    )
+                })?,
+                Some(_) => input::read_text(&full, input::MAX_MESH_BYTES, "material library")
+                    .map_err(|e| match e {
+                        ReadError::Io(reason) => at(
+                            *line,
+                            format!("cannot read material library {shown}: {reason}"),
+                        ),
+                        ReadError::Utf8 { line, column, byte } => Error::Obj {
+                            path: shown.clone(),
+                            line,
+                            message: format!("column {column}: {}", ReadError::utf8_message(byte)),
+                        },
+                    })?,
+            };
+        let library = mtl::parse_mtl(&shown, &library_text)?;
+        warnings.extend(library.warnings);
+        for m in library.materials {
+            if let Some(other) = materials.iter().find(|o| o.name == m.name) {
+                return Err(at(
+                    *line,
+                    format!(
+                        "material '{}' is defined in both {} and {shown}",
+                        m.name, other.library
+                    ),
+                ));
+            }
+            materials.push(m);
+        }
+    }
+    for (name, line) in &statements.uses {
+        if !materials.iter().any(|m| m.name == *name) {
+            let libraries: Vec<&str> = statements
+                .libraries
+                .iter()
+                .map(|(l, _)| l.as_str())
+                .collect();
+            return Err(at(
+                *line,
+                format!(
+                    "usemtl '{name}': no such material in {}",
+                    libraries.join(", ")
+                ),
+            ));
+        }
+    }
+    Ok(materials)
 }
 
 fn compile_material(m: &MaterialDesc) -> Result<Material, String> {

@@ -263,7 +263,22 @@ pub enum ObjectDesc {
         /// The shading normal: the triangle's own, or interpolated vertex normals.
         #[serde(default)]
         normals: NormalsDesc,
+        /// Every face in `material`, or each in its MTL material.
+        #[serde(default)]
+        materials: MeshMaterialsDesc,
     },
+}
+
+/// A mesh's `materials`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MeshMaterialsDesc {
+    /// Every face in the object's `material`.
+    #[default]
+    Object,
+    /// Each face in the material its `usemtl` names, from the libraries the OBJ file
+    /// names (`mtllib`), mapped by `scene::mtl`; faces before any `usemtl` in `material`.
+    Mtl,
 }
 
 /// A mesh's `normals`.

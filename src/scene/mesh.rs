@@ -27,33 +27,70 @@ pub struct MeshTriangles {
     /// The unit vertex normals of each triangle's corners, when read for smooth shading
     /// (`parse_obj_smooth`); else empty.
     pub normals: Vec<[Vec3; 3]>,
+    /// Each triangle's material when read with material names (`ObjOptions::materials`):
+    /// 0 for none (faces before any `usemtl`), else 1 + its index in those names; else
+    /// empty.
+    pub material: Vec<u32>,
     pub degenerate: usize,
+}
+
+/// What `read_obj` reads beside the triangles.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ObjOptions<'a> {
+    /// Vertex normals for smooth shading (`parse_obj_smooth`).
+    pub smooth: bool,
+    /// The names of the materials the file's libraries define: each triangle's
+    /// `usemtl` among them (`MeshTriangles::material`).
+    pub materials: Option<&'a [String]>,
 }
 
 impl MeshTriangles {
     /// Keep the triangles (and their normals) that `keep` accepts; how many went.
     pub fn retain(&mut self, keep: impl Fn(&[Vec3; 3]) -> bool) -> usize {
         let before = self.triangles.len();
-        if self.normals.is_empty() {
+        if self.normals.is_empty() && self.material.is_empty() {
             self.triangles.retain(keep);
         } else {
             let mut k = 0;
             for i in 0..before {
                 if keep(&self.triangles[i]) {
                     self.triangles[k] = self.triangles[i];
-                    self.normals[k] = self.normals[i];
+                    if !self.normals.is_empty() {
+                        self.normals[k] = self.normals[i];
+                    }
+                    if !self.material.is_empty() {
+                        self.material[k] = self.material[i];
+                    }
                     k += 1;
                 }
             }
             self.triangles.truncate(k);
-            self.normals.truncate(k);
+            self.normals.truncate(k.min(self.normals.len()));
+            self.material.truncate(k.min(self.material.len()));
         }
         before - self.triangles.len()
+    }
+
+    /// Split every triangle 1-to-4 at its edge midpoints `levels` times
+    /// (`generate::subdivide`); each child's corner normals interpolate its parent's,
+    /// and it keeps its parent's material.
+    pub fn subdivide(&mut self, levels: u32) {
+        self.triangles = crate::generate::subdivide_times(&self.triangles, levels);
+        if !self.normals.is_empty() {
+            let normals = crate::generate::subdivide_times(&self.normals, levels);
+            self.normals = unit_normals(&self.triangles, &normals);
+        }
+        if !self.material.is_empty() {
+            let children = 1usize << (2 * levels);
+            self.material = (self.material.iter())
+                .flat_map(|&m| std::iter::repeat_n(m, children))
+                .collect();
+        }
     }
 }
 
 /// The material libraries an OBJ file names (`mtllib` lines), relative to its directory:
-/// files that belong with the mesh, though the renderer never reads them. None if the
+/// files that belong with the mesh (read with `materials = "mtl"`). None if the
 /// file cannot be read as a mesh (loading it reports why).
 pub fn material_libraries(obj: &Path) -> Vec<PathBuf> {
     let Ok(size) = input::check_file(obj, input::MAX_MESH_BYTES, "mesh") else {
@@ -86,9 +123,41 @@ pub fn material_libraries(obj: &Path) -> Vec<PathBuf> {
     }
 }
 
+/// An OBJ file's material statements, with their 1-based lines.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MaterialStatements {
+    /// Each file name of each `mtllib` (one statement may name several).
+    pub libraries: Vec<(String, usize)>,
+    /// Each `usemtl`'s material name (the rest of its line, as tobj reads it).
+    pub uses: Vec<(String, usize)>,
+}
+
+/// The `mtllib` and `usemtl` statements of OBJ text.
+pub fn material_statements(text: &str) -> MaterialStatements {
+    let text = with_lf_line_ends(text);
+    let mut found = MaterialStatements::default();
+    for (n, line) in text.split('\n').enumerate() {
+        let line = line.trim();
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("mtllib") => found
+                .libraries
+                .extend(words.map(|name| (name.to_string(), n + 1))),
+            Some("usemtl") => {
+                let name = line["usemtl".len()..].trim();
+                if !name.is_empty() {
+                    found.uses.push((name.to_string(), n + 1));
+                }
+            }
+            _ => {}
+        }
+    }
+    found
+}
+
 /// Parse OBJ text. `path` is only used in messages.
 pub fn parse_obj(path: &str, text: &str) -> Result<MeshTriangles> {
-    read_obj(path, text, false)
+    read_obj(path, text, ObjOptions::default())
 }
 
 /// Parse OBJ text with vertex normals for smooth shading: the file's `vn` normals where
@@ -98,10 +167,16 @@ pub fn parse_obj(path: &str, text: &str) -> Result<MeshTriangles> {
 /// vertices at one position share a normal whatever the file's groups or indices. A
 /// normal of no direction falls back to its triangle's own.
 pub fn parse_obj_smooth(path: &str, text: &str) -> Result<MeshTriangles> {
-    read_obj(path, text, true)
+    let options = ObjOptions {
+        smooth: true,
+        ..ObjOptions::default()
+    };
+    read_obj(path, text, options)
 }
 
-fn read_obj(path: &str, text: &str, smooth: bool) -> Result<MeshTriangles> {
+/// Parse OBJ text with what `options` asks for beside the triangles.
+pub fn read_obj(path: &str, text: &str, options: ObjOptions) -> Result<MeshTriangles> {
+    let smooth = options.smooth;
     let fail = |line: usize, message: String| Error::Obj {
         path: path.to_string(),
         line,
@@ -110,7 +185,7 @@ fn read_obj(path: &str, text: &str, smooth: bool) -> Result<MeshTriangles> {
     let text = with_lf_line_ends(text);
     let faces_name_normals =
         check_obj(&text, smooth).map_err(|(line, message)| fail(line, message))?;
-    let options = tobj::LoadOptions {
+    let load = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
         ignore_points: true,
@@ -120,8 +195,28 @@ fn read_obj(path: &str, text: &str, smooth: bool) -> Result<MeshTriangles> {
         text: text.as_bytes(),
         position: 0,
     };
-    let (models, _) = tobj::load_obj_buf(&mut reader, &options, |_| Ok(Default::default()))
+    // Materials by name only: `scene::mtl` reads the libraries themselves. Each
+    // `mtllib` gives tobj every name, so a `usemtl` anywhere after one finds its own.
+    let names = options.materials.unwrap_or(&[]);
+    let loader = |_: &std::path::Path| -> tobj::MTLLoadResult {
+        let materials = names
+            .iter()
+            .map(|name| tobj::Material {
+                name: name.clone(),
+                ..tobj::Material::default()
+            })
+            .collect();
+        let index = names
+            .iter()
+            .enumerate()
+            .map(|(i, n)| (n.clone(), i))
+            .collect();
+        Ok((materials, index))
+    };
+    let (models, materials) = tobj::load_obj_buf(&mut reader, &load, loader)
         .map_err(|e| fail(reader.line(), format!("malformed OBJ ({e})")))?;
+    let materials = materials.unwrap_or_default();
+    let mut material = Vec::new();
     let mut triangles = Vec::new();
     let mut file_normals = Vec::new();
     let mut degenerate = 0;
@@ -140,10 +235,19 @@ fn read_obj(path: &str, text: &str, smooth: bool) -> Result<MeshTriangles> {
             let i = i as usize * 3;
             Vec3::new(mesh.normals[i], mesh.normals[i + 1], mesh.normals[i + 2])
         };
+        // 1 + the material's index in `names`, 0 for none.
+        let group = mesh
+            .material_id
+            .and_then(|id| materials.get(id))
+            .and_then(|m| names.iter().position(|n| *n == m.name))
+            .map_or(0, |i| i as u32 + 1);
         for (f, face) in mesh.indices.chunks_exact(3).enumerate() {
             let tri = [vertex(face[0]), vertex(face[1]), vertex(face[2])];
             if is_proper_triangle(tri) {
                 triangles.push(tri);
+                if options.materials.is_some() {
+                    material.push(group);
+                }
                 if use_file_normals {
                     let n = &mesh.normal_indices[3 * f..3 * f + 3];
                     file_normals.push([normal(n[0]), normal(n[1]), normal(n[2])]);
@@ -167,6 +271,7 @@ fn read_obj(path: &str, text: &str, smooth: bool) -> Result<MeshTriangles> {
     Ok(MeshTriangles {
         triangles,
         normals,
+        material,
         degenerate,
     })
 }

@@ -12,6 +12,7 @@ pub mod input;
 mod light;
 pub mod limits;
 pub mod mesh;
+pub mod mtl;
 mod source;
 pub mod transform;
 
@@ -87,6 +88,9 @@ pub struct Scene {
     pub bounds: Aabb,
     /// Zero-area mesh triangles left out.
     pub degenerate_triangles: usize,
+    /// What the scene's files say that the renderer does not use (an MTL statement it
+    /// has no mapping for), one message each, for the user.
+    pub warnings: Vec<String>,
 }
 
 impl Scene {
