@@ -16,6 +16,7 @@ use crate::scene::Scene;
 use crate::settings::RenderSettings;
 use glam::Vec3;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The sums of a progressive render's passes, made by
 /// [`Renderer::progressive`](crate::Renderer::progressive) and advanced one sample a
@@ -38,6 +39,8 @@ pub struct Progressive {
     /// Where each tile's sums start in `sums`.
     offsets: Vec<usize>,
     counts: RayCounts,
+    /// A pass was stopped part way: some tiles have a sample more than others.
+    interrupted: bool,
 }
 
 impl Progressive {
@@ -72,6 +75,7 @@ impl Progressive {
             sums,
             offsets,
             counts: RayCounts::default(),
+            interrupted: false,
         })
     }
 
@@ -105,11 +109,20 @@ impl Progressive {
         &self.counts
     }
 
+    /// A pass was stopped part way ([`Renderer::render_pass_unless`]): the tiles
+    /// differ in samples until [`Progressive::restart`].
+    ///
+    /// [`Renderer::render_pass_unless`]: crate::Renderer::render_pass_unless
+    pub fn is_interrupted(&self) -> bool {
+        self.interrupted
+    }
+
     /// Forget the passes (after the camera moved): the next pass is sample 0 again.
     pub fn restart(&mut self) {
         self.sums.fill(Vec3::ZERO);
         self.passes = 0;
         self.counts = RayCounts::default();
+        self.interrupted = false;
     }
 
     /// The image so far: each pixel the mean of its samples (black before the first
@@ -161,19 +174,27 @@ impl Progressive {
 }
 
 /// Render the next pass of `progressive` (sample index `progressive.passes()` of every
-/// pixel) on the current rayon pool, a tile a task; the rays it traced.
+/// pixel) on the current rayon pool, a tile a task; the rays it traced. `stop` is asked
+/// before each tile: once it says yes, the tiles not yet begun are skipped, the pass is
+/// not counted, and the render is interrupted (`None`).
 pub fn render_pass(
     scene: &Scene,
     accel: &Accel,
     settings: &RenderSettings,
     progressive: &mut Progressive,
-) -> Result<RayCounts> {
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Result<Option<RayCounts>> {
     let (width, height) = (scene.camera.width, scene.camera.height);
     if (progressive.width, progressive.height) != (width, height) {
         return Err(Error::Options(format!(
             "a progressive render of a {}x{} image cannot continue at {width}x{height}",
             progressive.width, progressive.height
         )));
+    }
+    if progressive.interrupted {
+        return Err(Error::Options(
+            "the progressive render's last pass was stopped: restart it".into(),
+        ));
     }
     if progressive.is_done() {
         return Err(Error::Options(format!(
@@ -205,22 +226,26 @@ pub fn render_pass(
         rest = next;
         pieces.push((*tile, mine));
     }
+    let stopped = AtomicBool::new(false);
     let counts = pieces
         .into_par_iter()
         .map(|(tile, sums)| {
-            accumulate_tile(
-                tracer,
-                settings.packet_width,
-                tile,
-                sample..sample + 1,
-                sums,
-            )
+            if stopped.load(Ordering::Relaxed) || stop() {
+                stopped.store(true, Ordering::Relaxed);
+                return RayCounts::default();
+            }
+            let samples = sample..sample + 1;
+            accumulate_tile(tracer, settings.packet_width, tile, samples, sums)
         })
         .reduce(RayCounts::default, |mut a, b| {
             a.add(&b);
             a
         });
+    if stopped.into_inner() {
+        progressive.interrupted = true;
+        return Ok(None);
+    }
     progressive.passes += 1;
     progressive.counts.add(&counts);
-    Ok(counts)
+    Ok(Some(counts))
 }

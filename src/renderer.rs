@@ -429,14 +429,55 @@ impl Renderer {
     /// Render the next pass of `progressive`: sample `progressive.passes()` of every
     /// pixel, added to its sum, on the current rayon pool; the rays it traced. After the
     /// camera moves, [`Progressive::restart`] starts again from sample 0.
-    /// [`Error::Options`](crate::Error::Options) for a render of another image size or
-    /// with all its passes.
+    /// [`Error::Options`](crate::Error::Options) for a render of another image size,
+    /// with all its passes, or interrupted ([`Renderer::render_pass_unless`]).
     pub fn render_pass(
         &self,
         settings: &RenderSettings,
         progressive: &mut Progressive,
     ) -> Result<RayCounts> {
-        progressive::render_pass(&self.scene, &self.accel, settings, progressive)
+        let counts =
+            progressive::render_pass(&self.scene, &self.accel, settings, progressive, &|| false)?;
+        Ok(counts.unwrap_or_default())
+    }
+
+    /// [`Renderer::render_pass`], unless `stop` says yes: it is asked before each tile
+    /// of 16x16 pixels (from any thread), and once it does, the tiles not yet begun are
+    /// skipped and the pass is `None`, not counted. Then the tiles differ in samples
+    /// ([`Progressive::is_interrupted`]) and only [`Progressive::restart`] continues the
+    /// render: for a pass that a camera move makes useless.
+    ///
+    /// ```
+    /// use raytracer::{RenderSettings, Renderer};
+    /// use std::sync::atomic::{AtomicU32, Ordering};
+    ///
+    /// let renderer = Renderer::from_toml(r#"
+    ///     camera = { width = 64, aspect_ratio = 1.0 }
+    ///     materials.grey = { type = "diffuse", albedo = [0.5, 0.5, 0.5] }
+    ///     objects = [{ type = "sphere", center = [0, 0, -2], radius = 0.5, material = "grey" }]
+    /// "#)?;
+    /// let settings = RenderSettings::default();
+    /// let mut progressive = renderer.progressive(16)?;
+    /// // 16 tiles; stop after the fifth has begun (on one thread).
+    /// let begun = AtomicU32::new(0);
+    /// let stop = || begun.fetch_add(1, Ordering::Relaxed) >= 5;
+    /// let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    /// let pass = pool.install(|| renderer.render_pass_unless(&settings, &mut progressive, &stop))?;
+    /// assert!(pass.is_none() && progressive.is_interrupted());
+    /// assert_eq!(progressive.passes(), 0);
+    /// assert!(renderer.render_pass(&settings, &mut progressive).is_err());
+    /// progressive.restart();
+    /// renderer.render_pass(&settings, &mut progressive)?;
+    /// assert_eq!(progressive.passes(), 1);
+    /// # Ok::<(), raytracer::Error>(())
+    /// ```
+    pub fn render_pass_unless(
+        &self,
+        settings: &RenderSettings,
+        progressive: &mut Progressive,
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<Option<RayCounts>> {
+        progressive::render_pass(&self.scene, &self.accel, settings, progressive, stop)
     }
 
     /// The compiled scene, for the command line's statistics and the tests.

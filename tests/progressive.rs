@@ -235,3 +235,36 @@ fn a_smaller_size_is_the_same_view_at_that_width() {
     view.set_size(40, 22).unwrap();
     assert_eq!(bits(&view.render(&settings).unwrap()), bits(&full));
 }
+
+/// A pass stopped before its first tile, or part way, counts for nothing: the render is
+/// refused until it restarts, and then renders the bits of a fresh one.
+#[test]
+fn a_stopped_pass_counts_for_nothing_until_the_restart() {
+    let file = SceneFile::builtin("cornell").unwrap();
+    let view = renderer(&file, 1);
+    let settings = RenderSettings::default();
+    let fresh = passes(&view, &settings, 16, 2);
+    let tiles = std::sync::atomic::AtomicU32::new(0);
+    let after_three = || tiles.fetch_add(1, std::sync::atomic::Ordering::Relaxed) >= 3;
+    let always = || true;
+    let stops: [&(dyn Fn() -> bool + Sync); 2] = [&always, &after_three];
+    for stop in stops {
+        let mut progressive = view.progressive(16).unwrap();
+        view.render_pass(&settings, &mut progressive).unwrap();
+        let pass = view.render_pass_unless(&settings, &mut progressive, stop);
+        assert!(pass.unwrap().is_none());
+        assert!(progressive.is_interrupted());
+        assert_eq!(progressive.passes(), 1);
+        assert!(matches!(
+            view.render_pass(&settings, &mut progressive),
+            Err(Error::Options(_))
+        ));
+        progressive.restart();
+        assert!(!progressive.is_interrupted());
+        for _ in 0..2 {
+            let pass = view.render_pass_unless(&settings, &mut progressive, &|| false);
+            assert!(pass.unwrap().is_some());
+        }
+        assert_eq!(bits(&progressive.film().unwrap()), bits(&fresh));
+    }
+}

@@ -15,6 +15,7 @@ use super::args::ViewArgs;
 use anyhow::Context;
 use raytracer::{Progressive, RenderSettings, Renderer, SceneOptions};
 use std::net::{IpAddr, SocketAddr};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::Instant;
 
@@ -66,8 +67,9 @@ const HEADER_BYTES: usize = 64;
 
 /// The time a pass may take while the camera moves: a scene whose full-size pass takes
 /// longer is previewed at a fraction of the size (`preview_size`), so that the first
-/// frame of a move comes before the next mouse event (16 ms apart at 60 Hz).
-const PREVIEW_MS: f64 = 15.0;
+/// frame of a move comes before the next mouse event (16 ms apart at 60 Hz, the frame's
+/// making, sending and drawing included).
+const PREVIEW_MS: f64 = 10.0;
 
 /// How long after a preview the view waits for the next move before it starts a full
 /// pass: a little more than the time between two mouse events.
@@ -135,6 +137,8 @@ pub type ImageRequest = tokio::sync::oneshot::Sender<raytracer::Film>;
 #[derive(Default)]
 pub struct Shared {
     state: Mutex<State>,
+    /// A move is queued: the pass in flight stops (`Renderer::render_pass_unless`).
+    move_queued: AtomicBool,
     /// The render thread waits here when it has nothing to do.
     wake: Condvar,
 }
@@ -168,6 +172,7 @@ impl Shared {
         let mut state = self.lock();
         state.moves.push(m);
         state.moves_received += 1;
+        self.move_queued.store(true, Ordering::Relaxed);
         self.wake.notify_all();
         state.moves_received
     }
@@ -278,6 +283,7 @@ pub fn run(options: &ViewOptions) -> anyhow::Result<()> {
                     .map(|(s, _)| s)
                     .unwrap_or_else(|e| e.into_inner().0);
             }
+            shared.move_queued.store(false, Ordering::Relaxed);
             (
                 std::mem::take(&mut state.moves),
                 std::mem::take(&mut state.images),
@@ -306,6 +312,10 @@ pub fn run(options: &ViewOptions) -> anyhow::Result<()> {
                 shared.lock().camera_toml = renderer.camera_toml();
                 moved = true;
             }
+        }
+        // A pass stopped by a move that changed nothing (a pose refused): start again.
+        if progressive.is_interrupted() {
+            progressive.restart();
         }
         // The camera moves and a full pass is slow: a smaller picture first.
         let (width, height) = (progressive.width(), progressive.height());
@@ -338,7 +348,13 @@ pub fn run(options: &ViewOptions) -> anyhow::Result<()> {
             continue;
         }
         let start = Instant::now();
-        let counts = renderer.render_pass(&options.settings, &mut progressive)?;
+        let queued = || shared.move_queued.load(Ordering::Relaxed);
+        let Some(counts) =
+            renderer.render_pass_unless(&options.settings, &mut progressive, &queued)?
+        else {
+            // A move came: its frame first.
+            continue;
+        };
         let pass_ms = start.elapsed().as_secs_f64() * 1e3;
         // The full pass's time, smoothed over a few passes.
         full_pass_ms = if full_pass_ms == 0.0 {
@@ -377,7 +393,7 @@ mod tests {
     #[test]
     fn preview_sizes() {
         assert_eq!(preview_size(800, 450, 10.0), (800, 450, 1));
-        assert_eq!(preview_size(800, 800, 100.0), (267, 267, 3));
+        assert_eq!(preview_size(800, 800, 100.0), (200, 200, 4));
         assert_eq!(preview_size(800, 450, 40.0), (400, 225, 2));
         assert_eq!(preview_size(800, 450, 1e9), (100, 56, 8));
         assert_eq!(preview_size(3, 1, 1e9), (1, 1, 8));
