@@ -241,12 +241,15 @@ def measure_at_rest(driver, seconds):
 
 def measure_moves(driver, steps=40):
     """Frame latency after a move: a drag of `steps` moves 30 ms apart."""
-    driver.js("window.viewStats.latencies.length = 0;")
+    driver.js("window.viewStats.latencies.length = 0; window.viewStats.previews = 0;")
     drag(driver, steps, 3, 1, pause_ms=30)
     time.sleep(0.5)
-    latencies = stats(driver)["latencies"]
+    s = stats(driver)
+    latencies = s["latencies"]
     return {
         "moves": len(latencies),
+        "previews": s.get("previews", 0),
+        "preview_factor": s.get("previewFactor", 1),
         "latency_median_ms": round(statistics.median(latencies), 1),
         "latency_p90_ms": round(sorted(latencies)[int(0.9 * (len(latencies) - 1))], 1),
         "latency_max_ms": round(max(latencies), 1),
