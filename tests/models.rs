@@ -680,3 +680,47 @@ fn a_missing_library_exits_with_code_2_naming_it() {
         "{stderr}"
     );
 }
+
+#[test]
+fn the_models_scene_places_its_models_in_their_materials() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/models/models.toml");
+    let overrides = Overrides {
+        width: Some(32),
+        spp: Some(1),
+        max_depth: Some(3),
+    };
+    let scene = Scene::load(path, overrides).unwrap();
+    // Its library holds only what the mapping uses.
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    // The sun, and the lamp's bulb (an MTL light).
+    assert_eq!(scene.lights.len(), 2);
+    let kinds: Vec<&str> = scene
+        .materials
+        .iter()
+        .map(|m| match m {
+            Material::Phong(_) => "phong",
+            Material::PhongMirror { .. } => "mirror",
+            Material::Dielectric { .. } => "glass",
+            Material::Light { .. } => "light",
+            _ => "other",
+        })
+        .collect();
+    for kind in ["phong", "mirror", "glass", "light"] {
+        assert!(kinds.contains(&kind), "no {kind} material: {kinds:?}");
+    }
+    assert!(!scene.triangles.normals.is_empty());
+    let mut scene = scene;
+    let accel = Accel::build(&mut scene, AccelKind::Bvh);
+    let films: Vec<_> = PacketWidth::ALL
+        .into_iter()
+        .map(|packet_width| {
+            let settings = RenderSettings {
+                packet_width,
+                ..RenderSettings::new(0)
+            };
+            render(&scene, &accel, &settings, &|| {}).unwrap().film
+        })
+        .collect();
+    assert_eq!(films[0].non_finite_count(), 0);
+    assert!(films.iter().all(|f| bits(f) == bits(&films[0])));
+}
