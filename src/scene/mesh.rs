@@ -359,7 +359,8 @@ impl BufRead for LineCounter<'_> {
 }
 
 /// Check what tobj would take on trust: vertices and face references, and with `smooth`
-/// the normals. `Ok`: whether every face vertex names a normal (`v//vn`, `v/vt/vn`).
+/// the normals. `Ok`: with `smooth`, whether every face vertex names a normal (`v//vn`,
+/// `v/vt/vn`; not looked at otherwise).
 /// `Err` is (1-based line, message).
 fn check_obj(text: &str, smooth: bool) -> Result<bool, (usize, String)> {
     // Positions, texture coordinates and normals in the whole file (a positive index
@@ -394,7 +395,7 @@ fn check_obj(text: &str, smooth: bool) -> Result<bool, (usize, String)> {
                 let mut count = 0;
                 for word in words {
                     check_reference(word, seen, totals).map_err(at)?;
-                    if statement == "f" {
+                    if smooth && statement == "f" {
                         faces_name_normals &= word.split('/').nth(2).is_some_and(|w| !w.is_empty());
                     }
                     count += 1;
