@@ -35,7 +35,7 @@ fn single_thread<R: Send>(f: impl FnOnce() -> R + Send) -> R {
 }
 
 fn bench_camera_rays(c: &mut Criterion) {
-    eprintln!("AVX2 compiled in: {}", cfg!(target_feature = "avx2"));
+    eprintln!("lanes: {}", raytracer::lanes::COMPILED);
     let mut group = c.benchmark_group("camera_rays");
     group.sample_size(10);
     for (label, scene) in [

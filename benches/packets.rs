@@ -19,7 +19,7 @@ use raytracer::accel::packet::RayPacket;
 use raytracer::accel::{Accel, AccelKind, Context, TraversalStats};
 use raytracer::geometry::Ray;
 use raytracer::integrator::T_MIN;
-use raytracer::lanes::{set_lanes, Lane};
+use raytracer::lanes::{set_lanes, F32x16, Lane};
 use raytracer::scene::{Overrides, Scene};
 use wide::f32x8;
 
@@ -84,15 +84,7 @@ fn visible_scalar(scene: &Scene, accel: &Accel, rays: &[Ray]) -> Vec<bool> {
 }
 
 fn bench_packets(c: &mut Criterion) {
-    eprintln!(
-        "AVX2 compiled in: {} (8-wide lanes run as {})",
-        raytracer::lanes::AVX2,
-        if raytracer::lanes::AVX2 {
-            "one AVX register"
-        } else {
-            "two SSE halves"
-        }
-    );
+    eprintln!("lanes: {}", raytracer::lanes::COMPILED);
     for name in ["bunny", "bunny-closeup"] {
         let mut scene = Scene::load(name, Overrides::default()).unwrap();
         let accel = Accel::build(&mut scene, AccelKind::Bvh);
@@ -112,6 +104,13 @@ fn bench_packets(c: &mut Criterion) {
             closest_packets::<glam::Vec4>(&scene, &accel, &l4),
             "4-wide camera rays of {name}"
         );
+        let p16 = camera_packets(&scene, 16);
+        let l16 = in_lanes::<F32x16>(&p16);
+        assert_eq!(
+            closest_scalar(&scene, &accel, &flatten(&p16)),
+            closest_packets::<F32x16>(&scene, &accel, &l16),
+            "16-wide camera rays of {name}"
+        );
 
         let mut group = c.benchmark_group(format!("camera_rays/{name}"));
         group.sample_size(10);
@@ -124,6 +123,9 @@ fn bench_packets(c: &mut Criterion) {
         });
         group.bench_function("8-wide", |b| {
             b.iter(|| closest_packets::<f32x8>(&scene, &accel, &l8).len())
+        });
+        group.bench_function("16-wide", |b| {
+            b.iter(|| closest_packets::<F32x16>(&scene, &accel, &l16).len())
         });
         group.finish();
 

@@ -15,6 +15,7 @@ use raytracer::PacketWidth;
 mod common;
 
 fn bench_render(c: &mut Criterion) {
+    eprintln!("lanes: {}", raytracer::lanes::COMPILED);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
@@ -25,6 +26,7 @@ fn bench_render(c: &mut Criterion) {
             ("scalar", PacketWidth::Scalar, true),
             ("8-wide", PacketWidth::Eight, true),
             ("8-wide-no-specialize", PacketWidth::Eight, false),
+            ("16-wide", PacketWidth::Sixteen, true),
         ];
         // The original program's sampling, as the figures quoted for this bench.
         let settings = |packet_width, specialize| RenderSettings {

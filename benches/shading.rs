@@ -15,7 +15,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::{Vec3, Vec4};
 use raytracer::accel::{Accel, AccelKind};
 use raytracer::integrator::{PhongLanes, RayCounts, SurfaceLanes, Tracer};
-use raytracer::lanes::{Lane, V3};
+use raytracer::lanes::{F32x16, Lane, MAX_WIDTH, V3};
 use raytracer::material::Material;
 use raytracer::render::render;
 use raytracer::sampling::{KeyLanes, Sampler, SamplerKind};
@@ -54,8 +54,8 @@ fn phong_batch<L: Lane>(tracer: &Tracer, points: &[(Vec3, Vec3)]) -> Vec<[u32; 3
     let mut counts = RayCounts::default();
     for (c, chunk) in points.chunks(L::WIDTH).enumerate() {
         let at = |k: usize| chunk[k.min(chunk.len() - 1)];
-        let xs: [u32; 8] = std::array::from_fn(|k| (c * L::WIDTH + k) as u32 % 800);
-        let keys: KeyLanes = sampler.key_lanes(L::WIDTH, xs, [7; 8], 0);
+        let xs: [u32; MAX_WIDTH] = std::array::from_fn(|k| (c * L::WIDTH + k) as u32 % 800);
+        let keys: KeyLanes = sampler.key_lanes(L::WIDTH, xs, [7; MAX_WIDTH], 0);
         let s = SurfaceLanes::<L>::flat(
             V3::from_fn(|k| at(k).0),
             V3::splat(Vec3::splat(1e-4)),
@@ -81,6 +81,7 @@ fn phong_batch<L: Lane>(tracer: &Tracer, points: &[(Vec3, Vec3)]) -> Vec<[u32; 3
 }
 
 fn bench_shading(c: &mut Criterion) {
+    eprintln!("lanes: {}", raytracer::lanes::COMPILED);
     // The Phong kernel.
     let (scene, accel) = load("cornell", 200, 1);
     let tracer = Tracer::new(&scene, &accel, 0);
@@ -103,6 +104,11 @@ fn bench_shading(c: &mut Criterion) {
         phong_batch::<f32x8>(&tracer, &points),
         "8 wide differs"
     );
+    assert_eq!(
+        scalar,
+        phong_batch::<F32x16>(&tracer, &points),
+        "16 wide differs"
+    );
     let mut group = c.benchmark_group("shading/phong");
     group.throughput(Throughput::Elements(POINTS as u64));
     group.bench_function("1", |b| {
@@ -114,6 +120,9 @@ fn bench_shading(c: &mut Criterion) {
     group.bench_function("8", |b| {
         b.iter(|| phong_batch::<f32x8>(&tracer, black_box(&points)))
     });
+    group.bench_function("16", |b| {
+        b.iter(|| phong_batch::<F32x16>(&tracer, black_box(&points)))
+    });
     group.finish();
 
     // Whole small renders.
@@ -124,7 +133,7 @@ fn bench_shading(c: &mut Criterion) {
     for name in ["quads", "spheres", "mixed", "cornell"] {
         let (scene, accel) = load(name, 200, 2);
         let settings = |packet_width: u32| RenderSettings {
-            packet_width: PacketWidth::try_from(packet_width).expect("1, 4 or 8"),
+            packet_width: PacketWidth::try_from(packet_width).expect("1, 4, 8 or 16"),
             sampler: SamplerKind::Independent,
             ..RenderSettings::new(0)
         };
@@ -137,12 +146,15 @@ fn bench_shading(c: &mut Criterion) {
                 .collect()
         };
         let one = bits(1);
-        assert!(one == bits(4) && one == bits(8), "{name}: widths differ");
+        assert!(
+            one == bits(4) && one == bits(8) && one == bits(16),
+            "{name}: widths differ"
+        );
         let mut group = c.benchmark_group(format!("shading/render/{name}"));
         group.sample_size(10);
         let samples = scene.camera.width as u64 * scene.camera.height as u64 * scene.spp as u64;
         group.throughput(Throughput::Elements(samples));
-        for w in [1, 4, 8] {
+        for w in [1, 4, 8, 16] {
             let s = settings(w);
             group.bench_function(w.to_string(), |b| {
                 b.iter(|| pool.install(|| render(&scene, &accel, &s, &|| {}).expect("the render")))

@@ -57,8 +57,8 @@ pub enum Error {
     #[error("{0}")]
     Options(String),
 
-    /// A packet width other than 1, 4 or 8.
-    #[error("packet width must be 1, 4 or 8, got '{0}'")]
+    /// A packet width other than 1, 4, 8 or 16.
+    #[error("packet width must be 1, 4, 8 or 16, got '{0}'")]
     PacketWidth(String),
 
     /// An image whose film cannot be allocated.

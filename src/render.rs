@@ -9,7 +9,7 @@ use crate::error::{Error, Result};
 use crate::farm::region::{Rect, Region, TILE};
 pub use crate::film::Film;
 use crate::integrator::{footprint, PacketPixels, RayCounts, Regrouping, Tracer};
-use crate::lanes::{set_lanes, Lane, V3};
+use crate::lanes::{set_lanes, F32x16, Lane, V3};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 pub use crate::settings::{PacketWidth, RenderSettings};
@@ -430,12 +430,16 @@ pub(crate) fn accumulate_tile(
     sums: &mut [Vec3],
 ) -> RayCounts {
     match packet_width {
+        PacketWidth::Sixteen if tracer.regroups::<F32x16>() => {
+            accumulate_tile_regrouped::<F32x16>(tracer, tile, samples, sums)
+        }
         PacketWidth::Eight if tracer.regroups::<f32x8>() => {
             accumulate_tile_regrouped::<f32x8>(tracer, tile, samples, sums)
         }
         PacketWidth::Four if tracer.regroups::<Vec4>() => {
             accumulate_tile_regrouped::<Vec4>(tracer, tile, samples, sums)
         }
+        PacketWidth::Sixteen => accumulate_tile_packets::<F32x16>(tracer, tile, samples, sums),
         PacketWidth::Eight => accumulate_tile_packets::<f32x8>(tracer, tile, samples, sums),
         PacketWidth::Four => accumulate_tile_packets::<Vec4>(tracer, tile, samples, sums),
         PacketWidth::Scalar => accumulate_tile_scalar(tracer, tile, samples, sums),

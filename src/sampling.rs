@@ -193,7 +193,7 @@ pub struct KeyLanes {
 }
 
 /// The widest packet.
-const MAX_LANES: usize = 8;
+const MAX_LANES: usize = crate::lanes::MAX_WIDTH;
 
 impl Sampler {
     /// The keys of camera sample `sample` of pixels (x\[k\], y\[k\]), k < `width`:
@@ -580,12 +580,12 @@ mod tests {
     }
 
     /// Every sampler's lanes hold the scalar keys and give their numbers, bit for bit,
-    /// at widths 1, 4 and 8.
+    /// at widths 1, 4, 8 and 16.
     #[test]
     fn lanes_give_the_scalar_keys_and_numbers() {
         fn check<L: Lane>(sampler: &Sampler, x0: u32) {
-            let xs: [u32; 8] = std::array::from_fn(|i| x0 + i as u32 % 4);
-            let ys: [u32; 8] = std::array::from_fn(|i| 7 + i as u32 / 4);
+            let xs: [u32; MAX_LANES] = std::array::from_fn(|i| x0 + i as u32 % 4);
+            let ys: [u32; MAX_LANES] = std::array::from_fn(|i| 7 + i as u32 / 4);
             for sample in [0, 3, 17] {
                 let lanes = sampler.key_lanes(L::WIDTH, xs, ys, sample);
                 for i in 0..L::WIDTH {
@@ -637,6 +637,7 @@ mod tests {
                 check::<f32>(&sampler, x0);
                 check::<glam::Vec4>(&sampler, x0);
                 check::<wide::f32x8>(&sampler, x0);
+                check::<crate::lanes::F32x16>(&sampler, x0);
             }
         }
     }

@@ -8,11 +8,11 @@ use std::fmt;
 use std::str::FromStr;
 
 /// Rays traced together: one (the scalar reference tracer), or a SIMD packet of 4 (2x2
-/// pixels) or 8 (4x2 pixels). The image is the same bits at every width; only the time
-/// changes.
+/// pixels), 8 (4x2 pixels) or 16 (4x4 pixels). The image is the same bits at every
+/// width; only the time changes.
 ///
-/// The default is the widest the binary was compiled for: [`PacketWidth::Eight`] with
-/// AVX2, else [`PacketWidth::Four`] (8-wide packets then run as two 4-wide halves).
+/// The default is [`PacketWidth::widest`]: the widest that pays on the instruction set
+/// the binary was compiled for.
 ///
 /// ```
 /// use raytracer::PacketWidth;
@@ -30,27 +30,38 @@ pub enum PacketWidth {
     Four,
     /// Packets of 8 rays (4x2 pixels).
     Eight,
+    /// Packets of 16 rays (4x4 pixels).
+    Sixteen,
 }
 
 impl PacketWidth {
     /// Every width, narrowest first.
-    pub const ALL: [PacketWidth; 3] = [PacketWidth::Scalar, PacketWidth::Four, PacketWidth::Eight];
+    pub const ALL: [PacketWidth; 4] = [
+        PacketWidth::Scalar,
+        PacketWidth::Four,
+        PacketWidth::Eight,
+        PacketWidth::Sixteen,
+    ];
 
-    /// The widest packet the binary was compiled for: 8 with AVX2, else 4.
+    /// The widest packet that pays on the binary's instruction set: 16 with AVX-512, 8
+    /// with AVX2, else 4 (wider packets then run as halves).
     pub const fn widest() -> PacketWidth {
-        if crate::lanes::AVX2 {
+        if crate::lanes::AVX512 {
+            PacketWidth::Sixteen
+        } else if crate::lanes::AVX2 {
             PacketWidth::Eight
         } else {
             PacketWidth::Four
         }
     }
 
-    /// Rays a packet holds: 1, 4 or 8.
+    /// Rays a packet holds: 1, 4, 8 or 16.
     pub const fn rays(self) -> u32 {
         match self {
             PacketWidth::Scalar => 1,
             PacketWidth::Four => 4,
             PacketWidth::Eight => 8,
+            PacketWidth::Sixteen => 16,
         }
     }
 }
@@ -61,7 +72,7 @@ impl Default for PacketWidth {
     }
 }
 
-/// The width of `rays` rays, or [`Error::PacketWidth`] if it is not 1, 4 or 8.
+/// The width of `rays` rays, or [`Error::PacketWidth`] if it is not 1, 4, 8 or 16.
 impl TryFrom<u32> for PacketWidth {
     type Error = Error;
 
@@ -70,12 +81,13 @@ impl TryFrom<u32> for PacketWidth {
             1 => Ok(PacketWidth::Scalar),
             4 => Ok(PacketWidth::Four),
             8 => Ok(PacketWidth::Eight),
+            16 => Ok(PacketWidth::Sixteen),
             _ => Err(Error::PacketWidth(rays.to_string())),
         }
     }
 }
 
-/// Parses `1`, `4` or `8`.
+/// Parses `1`, `4`, `8` or `16`.
 impl FromStr for PacketWidth {
     type Err = Error;
 
@@ -151,7 +163,7 @@ mod tests {
             assert_eq!(PacketWidth::try_from(w.rays()).unwrap(), w);
             assert_eq!(w.to_string().parse::<PacketWidth>().unwrap(), w);
         }
-        for bad in [0, 2, 3, 5, 16, u32::MAX] {
+        for bad in [0, 2, 3, 5, 12, 32, u32::MAX] {
             assert!(PacketWidth::try_from(bad).is_err(), "{bad}");
         }
         for bad in ["", "x", "-1", " 4", "4.0", "08x"] {
@@ -161,7 +173,13 @@ mod tests {
 
     #[test]
     fn the_default_width_is_the_widest_compiled_in() {
-        let expected = if cfg!(target_feature = "avx2") { 8 } else { 4 };
+        let expected = if cfg!(target_feature = "avx512f") {
+            16
+        } else if cfg!(target_feature = "avx2") {
+            8
+        } else {
+            4
+        };
         assert_eq!(PacketWidth::default().rays(), expected);
         assert_eq!(RenderSettings::default().packet_width.rays(), expected);
         assert_eq!(RenderSettings::default().sampler, SamplerKind::Sobol);

@@ -74,6 +74,8 @@ fn the_same_bits_on_any_thread_count_and_packet_width() {
             (PacketWidth::Four, 2),
             (PacketWidth::Eight, 1),
             (PacketWidth::Eight, 2),
+            (PacketWidth::Sixteen, 1),
+            (PacketWidth::Sixteen, 2),
         ] {
             let other = at(width, threads);
             assert_eq!(

@@ -4,10 +4,11 @@
 mod support;
 
 use glam::Vec3;
-use raytracer::accel::packet::{RayPacket, ShadowLanes, MAX_WIDTH};
+use raytracer::accel::packet::{RayPacket, ShadowLanes};
 use raytracer::accel::{Accel, AccelKind, Context, ShadowQuery, TraversalStats};
 use raytracer::geometry::{Aabb, Hit, Ray};
 use raytracer::integrator::T_MIN;
+use raytracer::lanes::{F32x16, MAX_WIDTH};
 use raytracer::scene::Scene;
 use support::{bits, builtin, obj_text, render_with, scene_with_files, Rng};
 use wide::f32x8;
@@ -581,13 +582,29 @@ fn a_deep_tree_stays_within_the_traversal_stacks() {
         assert!(bvh.occluded(Context::new(scene, &mut s), ray, query(u32::MAX)));
         assert!(!bvh.occluded(Context::new(scene, &mut s), ray, query(object)));
     }
-    for group in rays.chunks_exact(MAX_WIDTH) {
-        let rays: [Ray; MAX_WIDTH] = group.try_into().unwrap();
+    // Packets of 16 lanes, and of 8.
+    for group in rays.chunks_exact(16) {
+        let rays: [Ray; MAX_WIDTH] = std::array::from_fn(|k| group[k]);
+        let p = RayPacket::<F32x16>::new(&rays, 0xffff);
+        let hits = bvh
+            .closest_hit_packet(Context::new(scene, &mut s), &p, T_MIN)
+            .to_array();
+        for (k, ray) in group.iter().enumerate() {
+            assert_eq!(key(hits[k]), key(pair.closest(ray, f32::INFINITY).1));
+        }
+        let shadow = ShadowLanes::<F32x16>::from_fn(T_MIN, object, |_| (f32::MAX, u32::MAX));
+        assert_eq!(
+            bvh.occluded_packet(Context::new(scene, &mut s), &p, shadow, 0xffff),
+            0
+        );
+    }
+    for group in rays.chunks_exact(8) {
+        let rays: [Ray; MAX_WIDTH] = std::array::from_fn(|k| group[k % 8]);
         let p = RayPacket::<f32x8>::new(&rays, 0xff);
         let hits = bvh
             .closest_hit_packet(Context::new(scene, &mut s), &p, T_MIN)
             .to_array();
-        for (k, ray) in rays.iter().enumerate() {
+        for (k, ray) in group.iter().enumerate() {
             assert_eq!(key(hits[k]), key(pair.closest(ray, f32::INFINITY).1));
         }
         let shadow = ShadowLanes::<f32x8>::from_fn(T_MIN, object, |_| (f32::MAX, u32::MAX));

@@ -1209,6 +1209,7 @@ fn report_json_has_sizes_timings_and_ray_counts() {
         uint(&r["packet_width"]),
         raytracer::PacketWidth::default().rays() as u64
     );
+    assert_eq!(r["isa"], raytracer::lanes::ISA);
     assert_eq!(uint(&r["threads"]), 2);
     assert!(r["accel"].is_string(), "accel: {}", r["accel"]);
     for key in ["load", "build", "render", "write", "total"] {

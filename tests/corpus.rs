@@ -1,5 +1,5 @@
 //! The benchmark corpus (`benches/corpus/*.toml`): every scene gives the same image bits
-//! at widths 1, 4 and 8, on 1 and 2 threads, with every sampler, and no pixel that is not
+//! at widths 1, 4, 8 and 16, on 1 and 2 threads, with every sampler, and no pixel that is not
 //! finite. The scenes are rendered small (37 pixels wide, so packets straddle the edges)
 //! at 2 samples a pixel, where every path they take is still taken.
 
@@ -99,6 +99,8 @@ fn every_corpus_scene_same_bits_at_every_width_thread_count_and_sampler() {
                 (PacketWidth::Four, 1),
                 (PacketWidth::Eight, 1),
                 (PacketWidth::Eight, 2),
+                (PacketWidth::Sixteen, 1),
+                (PacketWidth::Sixteen, 2),
             ] {
                 assert!(
                     film(&scene, &accel, sampler, width, threads) == reference,

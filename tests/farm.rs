@@ -114,16 +114,17 @@ fn parts_of_different_widths_crops_and_png_merge() {
     let d = dir.path();
     render_scene(d, &["-o", "full.exr"]);
     render_scene(d, &["-o", "full.png"]);
-    // Packet widths 1, 4, 8, threads 1 and 2, both accelerators, specialisation on and
-    // off, in one frame.
-    let settings: [&[&str]; 4] = [
+    // Packet widths 1, 4, 8, 16, threads 1 and 2, both accelerators, specialisation on
+    // and off, in one frame.
+    let settings: [&[&str]; 5] = [
         &["--packet-width", "1", "--threads", "1", "--accel", "linear"],
         &["--packet-width", "4", "--threads", "2", "--no-specialize"],
         &["--packet-width", "8", "--threads", "1"],
         &["--packet-width", "8", "--threads", "2", "--accel", "linear"],
+        &["--packet-width", "16", "--threads", "2"],
     ];
     for (i, setting) in settings.iter().enumerate() {
-        let region = format!("{i}/4");
+        let region = format!("{i}/5");
         let name = format!("p{i}.part");
         let mut args = setting.to_vec();
         args.extend(["--region", &region, "-o", &name]);
@@ -132,14 +133,14 @@ fn parts_of_different_widths_crops_and_png_merge() {
     ok(
         d,
         &[
-            "merge", "p0.part", "p1.part", "p2.part", "p3.part", "-o", "m.exr", "-q",
+            "merge", "p0.part", "p1.part", "p2.part", "p3.part", "p4.part", "-o", "m.exr", "-q",
         ],
     );
     assert!(read(d.join("m.exr")) == read(d.join("full.exr")));
     ok(
         d,
         &[
-            "merge", "p3.part", "p1.part", "p0.part", "p2.part", "-o", "m.png", "-q",
+            "merge", "p3.part", "p1.part", "p4.part", "p0.part", "p2.part", "-o", "m.png", "-q",
         ],
     );
     assert!(read(d.join("m.png")) == read(d.join("full.png")));
@@ -215,6 +216,7 @@ fn a_region_has_the_bits_of_the_same_pixels_of_the_frame() {
                     (PacketWidth::Scalar, 1),
                     (PacketWidth::Four, 2),
                     (PacketWidth::Eight, 2),
+                    (PacketWidth::Sixteen, 1),
                 ] {
                     let pool = rayon::ThreadPoolBuilder::new()
                         .num_threads(threads)

@@ -6,12 +6,12 @@ mod support;
 
 use glam::{Vec3, Vec4};
 use proptest::prelude::*;
-use raytracer::accel::packet::{RayPacket, ShadowLanes, MAX_WIDTH};
+use raytracer::accel::packet::{RayPacket, ShadowLanes};
 use raytracer::accel::{Accel, AccelKind, Context, TraversalStats};
 use raytracer::geometry::{Hit, Ray};
 use raytracer::integrator::T_MIN;
 use raytracer::integrator::{RayCounts, Tracer};
-use raytracer::lanes::Lane;
+use raytracer::lanes::{F32x16, Lane, MAX_WIDTH};
 use raytracer::render::{render, RenderSettings};
 use raytracer::sampling::SamplerKind;
 use raytracer::scene::builtin::SCENES;
@@ -48,8 +48,8 @@ fn render_bits(scene: &Scene, accel: &Accel, width: u32, threads: usize) -> Vec<
     render_counts(scene, accel, width, threads, true).0
 }
 
-/// `scene` rendered with `sampler` (seed 3) gives the scalar image's bits at widths 4
-/// and 8.
+/// `scene` rendered with `sampler` (seed 3) gives the scalar image's bits at widths 4,
+/// 8 and 16.
 fn same_bits_at_every_width(scene: &Scene, accel: &Accel, sampler: SamplerKind, name: &str) {
     let film = |packet_width| {
         let settings = RenderSettings {
@@ -68,6 +68,10 @@ fn same_bits_at_every_width(scene: &Scene, accel: &Accel, sampler: SamplerKind, 
         film(PacketWidth::Eight) == reference,
         "{name}, {sampler:?}: 8-wide"
     );
+    assert!(
+        film(PacketWidth::Sixteen) == reference,
+        "{name}, {sampler:?}: 16-wide"
+    );
 }
 
 /// The structured samplers, whose numbers the packet tracer draws lane by lane, give the
@@ -84,7 +88,7 @@ fn every_sampler_same_bits_at_every_width() {
 }
 
 /// Specialisation skips work, never changes a bit: every built-in scene with and
-/// without it, scalar and 8-wide. And it does skip: shadow rays in every scene with
+/// without it, scalar, 8- and 16-wide. And it does skip: shadow rays in every scene with
 /// Phong and lights, packets that miss everything where the background shows.
 #[test]
 fn specialisation_skips_work_and_keeps_the_bits() {
@@ -97,9 +101,15 @@ fn specialisation_skips_work_and_keeps_the_bits() {
         let (scalar, c1) = render_counts(&scene, &accel, 1, 2, true);
         let (packets, c8) = render_counts(&scene, &accel, 8, 2, true);
         let (packets_general, _) = render_counts(&scene, &accel, 8, 2, false);
+        let (sixteen, c16) = render_counts(&scene, &accel, 16, 2, true);
+        let (sixteen_general, _) = render_counts(&scene, &accel, 16, 2, false);
         assert!(scalar == reference, "{name}: scalar, specialised");
         assert!(packets == reference, "{name}: 8-wide, specialised");
         assert!(packets_general == reference, "{name}: 8-wide, general");
+        assert!(sixteen == reference, "{name}: 16-wide, specialised");
+        assert!(sixteen_general == reference, "{name}: 16-wide, general");
+        assert_eq!(c16.shadow + c16.shadow_culled, general.shadow, "{name}");
+        assert_eq!(c1.shadow_culled, c16.shadow_culled, "{name}");
         // Culled shadow rays are not traced: the same total either way.
         assert_eq!(c1.shadow + c1.shadow_culled, general.shadow, "{name}");
         assert_eq!(c8.shadow + c8.shadow_culled, general.shadow, "{name}");
@@ -152,7 +162,7 @@ fn specialisation_skips_work_and_keeps_the_bits() {
 }
 
 /// Every built-in scene, 37 pixels wide (so packets straddle the right edge and the
-/// bottom rows), gives the same linear f32 bits at widths 1, 4 and 8 and on 1 and 2
+/// bottom rows), gives the same linear f32 bits at widths 1, 4, 8 and 16 and on 1 and 2
 /// threads; and with the linear scan under the packets too.
 #[test]
 fn every_scene_same_bits_at_every_width_and_thread_count() {
@@ -160,7 +170,7 @@ fn every_scene_same_bits_at_every_width_and_thread_count() {
         let mut scene = builtin(name, 37, 2);
         let accel = Accel::build(&mut scene, AccelKind::Bvh);
         let reference = render_bits(&scene, &accel, 1, 1);
-        for (width, threads) in [(1, 2), (4, 1), (4, 2), (8, 1), (8, 2)] {
+        for (width, threads) in [(1, 2), (4, 1), (4, 2), (8, 1), (8, 2), (16, 1), (16, 2)] {
             assert!(
                 render_bits(&scene, &accel, width, threads) == reference,
                 "{name}: width {width}, {threads} threads differs from the scalar image"
@@ -168,16 +178,18 @@ fn every_scene_same_bits_at_every_width_and_thread_count() {
         }
         let mut linear_scene = builtin(name, 37, 2);
         let linear = Accel::build(&mut linear_scene, AccelKind::Linear);
-        assert!(
-            render_bits(&linear_scene, &linear, 8, 2) == reference,
-            "{name}: 8-wide over the linear scan differs"
-        );
+        for width in [8, 16] {
+            assert!(
+                render_bits(&linear_scene, &linear, width, 2) == reference,
+                "{name}: {width}-wide over the linear scan differs"
+            );
+        }
     }
 }
 
 /// Through a thin lens, camera packets' rays start at different points (no frustum
 /// traversal; tile cones widened to hold the lens): every built-in scene with a lens
-/// added, 37 pixels wide, gives the same bits at widths 1, 4 and 8 and on 1 and 2
+/// added, 37 pixels wide, gives the same bits at widths 1, 4, 8 and 16 and on 1 and 2
 /// threads, with every sampler.
 #[test]
 fn every_scene_through_a_lens_same_bits_at_every_width_and_thread_count() {
@@ -190,7 +202,7 @@ fn every_scene_through_a_lens_same_bits_at_every_width_and_thread_count() {
         assert!(scene.camera.has_lens(), "{name}");
         let accel = Accel::build(&mut scene, AccelKind::Bvh);
         let reference = render_bits(&scene, &accel, 1, 1);
-        for (width, threads) in [(1, 2), (4, 1), (4, 2), (8, 1), (8, 2)] {
+        for (width, threads) in [(1, 2), (4, 1), (4, 2), (8, 1), (8, 2), (16, 1), (16, 2)] {
             assert!(
                 render_bits(&scene, &accel, width, threads) == reference,
                 "{name}: width {width}, {threads} threads differs from the scalar image"
@@ -287,7 +299,7 @@ material = "m"
     })
 }
 
-/// Eight rays of one kind: 0 random, 1 aimed at the scene, 2 axis-parallel with ±0
+/// Sixteen rays of one kind: 0 random, 1 aimed at the scene, 2 axis-parallel with ±0
 /// components, 3 starting exactly on a surface (a hit point, no offset), 4 pointing away
 /// from the scene (miss everything); 5 a coherent bundle (like camera rays).
 fn packet_rays(scene: &Scene, accel: &Accel, kind: u8, seed: u64) -> [Ray; MAX_WIDTH] {
@@ -383,11 +395,11 @@ fn check_packet<L: Lane>(rays: &[Ray; MAX_WIDTH], active: u32) -> Result<(), Tes
     };
     let mut rng = Rng(active as u64);
     let t_light: [f32; MAX_WIDTH] = std::array::from_fn(|k| match hits[k] {
-        Some(h) if rng.next_u64() % 2 == 0 => h.t,
+        Some(h) if rng.next_u64().is_multiple_of(2) => h.t,
         _ => rng.range(0.0, 0.6),
     });
     let id_light: [u32; MAX_WIDTH] = std::array::from_fn(|k| match hits[k] {
-        Some(h) if rng.next_u64() % 3 == 0 => h.id,
+        Some(h) if rng.next_u64().is_multiple_of(3) => h.id,
         _ => (rng.next_u64() % 5000) as u32,
     });
     let object = scene.lights[0].object;
@@ -405,11 +417,13 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
 
     #[test]
-    fn packets_return_the_scalar_answers(kind in 0u8..7, seed: u64, mask in 1u32..256) {
+    fn packets_return_the_scalar_answers(kind in 0u8..7, seed: u64, mask in 1u32..65536) {
         let (scene, accel) = mixed_scene();
         let rays = packet_rays(scene, accel, kind, seed);
-        check_packet::<f32x8>(&rays, mask)?;
-        let mask4 = if mask & 0xf == 0 { mask >> 4 } else { mask & 0xf };
+        check_packet::<F32x16>(&rays, mask)?;
+        let mask8 = if mask & 0xff == 0 { mask >> 8 } else { mask & 0xff };
+        check_packet::<f32x8>(&rays, mask8)?;
+        let mask4 = if mask8 & 0xf == 0 { mask8 >> 4 } else { mask8 & 0xf };
         check_packet::<Vec4>(&rays, mask4)?;
     }
 }
@@ -658,7 +672,7 @@ fn shadow_candidates_keep_every_occluder() {
             // in the air.
             let base = centre + (Vec3::new(rng.f32(), rng.f32(), rng.f32()) - 0.5) * ext * 0.9;
             let aim = rng.unit_vector();
-            let origins: [Vec3; MAX_WIDTH] = std::array::from_fn(|_| {
+            let origins: [Vec3; 8] = std::array::from_fn(|_| {
                 let d = (aim + rng.unit_vector() * 0.05).normalize();
                 let r = Ray::new(base, d);
                 match accel.closest_hit(Context::new(&scene, &mut s), &r, T_MIN, f32::INFINITY) {

@@ -290,7 +290,8 @@ impl QuadLeaks {
 /// answer bit for bit; the original program's planar test runs on the same rays against
 /// the quads of those objects (its leaks counted apart). `scene` holds the objects.
 fn quad_rays(scene: &Scene, groups: &[Vec<(Vec3, Vec3)>], objects: &[u32], leaks: &mut QuadLeaks) {
-    use raytracer::accel::packet::{RayPacket, ShadowLanes, MAX_WIDTH};
+    use raytracer::accel::packet::{RayPacket, ShadowLanes};
+    use raytracer::lanes::MAX_WIDTH;
     use wide::f32x8;
     let mut bvh_scene = scene.clone();
     let bvh = Accel::build(&mut bvh_scene, AccelKind::Bvh);

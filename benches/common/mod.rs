@@ -6,11 +6,12 @@
 //! Each bench and example that includes this module uses part of it.
 #![allow(dead_code)]
 
-use raytracer::accel::packet::{RayPacket, MAX_WIDTH};
+use raytracer::accel::packet::RayPacket;
 use raytracer::accel::{Accel, AccelKind};
 use raytracer::geometry::spawn::spawn_ray;
 use raytracer::geometry::Ray;
 use raytracer::integrator::{footprint, Tracer};
+use raytracer::lanes::MAX_WIDTH;
 use raytracer::lanes::{Lane, V3};
 use raytracer::sampling::{slot, SampleKey};
 use raytracer::scene::{Overrides, Scene};

@@ -1,16 +1,17 @@
 #!/usr/bin/env python3
-"""Measures the scene corpus: one thread, widths 1, 4 and 8 alternated, medians.
+"""Measures the scene corpus: one thread, widths 1, 4, 8 and 16 alternated, medians.
 
     cargo build --release
     python3 benches/corpus/run.py [--rounds 5] [--perf] [--only NAME ...]
-        [--baseline OTHER_BINARY]
+        [--widths 1,4,8,16] [--baseline OTHER_BINARY]
 
 For each scene: the render phase's seconds (`--report`'s `render`) at each width, the
-median over rounds, the ratio scalar / 8-wide, the 8-wide Mrays/s, the packets' lane
-occupancies and what went single (`--stats`), and with `--perf` the three largest
-functions of the 8-wide render (`perf record`, self time). Every run uses
+median over rounds, the ratios scalar / 8-wide and 8-wide / 16-wide, the Mrays/s and
+the packets' lane occupancies and what went single (`--stats`) at the widest width,
+and with `--perf` the three largest functions of that render (`perf record`, self
+time). Every run uses
 `--sampler independent`; the widths of one scene run back to back, in an order that
-turns each round, so a change in the machine's load falls on all three. With
+turns each round, so a change in the machine's load falls on all of them. With
 `--baseline`, another build of the renderer (a copy of an earlier
 `target/release/raytracer`) runs the scalar and 8-wide renders in the same rounds,
 alternated with this one, and the table gains their ratios. Prints a Markdown table
@@ -50,7 +51,7 @@ BUILTIN = [
     ("bunny", 800),
     ("bunny-closeup", 800),
 ]
-WIDTHS = [1, 4, 8]
+WIDTHS = [1, 4, 8, 16]
 
 
 def scene_args(name):
@@ -74,9 +75,9 @@ def run(name, width, tmp, extra=(), binary=None):
     return r["seconds"]["render"], r["rays"]["total"], done.stderr
 
 
-def occupancy(name, tmp):
-    """The 8-wide packets' lane occupancies and single-ray counts, from `--stats`."""
-    _, _, err = run(name, 8, tmp, ["--stats"])
+def occupancy(name, width, tmp):
+    """The packets' lane occupancies and single-ray counts at `width`, from `--stats`."""
+    _, _, err = run(name, width, tmp, ["--stats"])
     line = next((l for l in err.splitlines() if "lane occupancy" in l), "")
     found = dict(re.findall(r"(camera|shadow|secondary) ([0-9.]+%|-)", line))
     visits = re.search(r"at node visits ([0-9.]+%|-)", line)
@@ -84,10 +85,10 @@ def occupancy(name, tmp):
     return found, visits.group(1) if visits else "-", single.replace("stats: ", "")
 
 
-def hottest(name, tmp, count=3):
+def hottest(name, width, tmp, count=3):
     data = os.path.join(tmp, "perf.data")
     args = scene_args(name) + [
-        "--threads", "1", "--packet-width", "8", "--sampler", "independent", "-q",
+        "--threads", "1", "--packet-width", str(width), "--sampler", "independent", "-q",
         "-o", os.path.join(tmp, "out.exr"),
     ]
     subprocess.run(["perf", "record", "-q", "-F", "2000", "-o", data, BIN] + args,
@@ -113,7 +114,13 @@ def main():
     parser.add_argument("--perf", action="store_true", help="add the hottest functions")
     parser.add_argument("--only", nargs="*", help="these scenes only")
     parser.add_argument("--baseline", help="another build to compare with, alternated")
+    parser.add_argument("--widths", default=",".join(map(str, WIDTHS)),
+                        help="packet widths, comma-separated (1 and 8 among them)")
     a = parser.parse_args()
+    widths = [int(w) for w in a.widths.split(",")]
+    if 1 not in widths or 8 not in widths:
+        sys.exit("--widths must include 1 and 8")
+    widest = max(widths)
     names = CORPUS + [n for n, _ in BUILTIN]
     if a.only:
         names = [n for n in names if n in a.only]
@@ -127,11 +134,12 @@ def main():
     print(f"CPU: {cpu}, the host shows {isa}; {version.strip()}")
     print(f"load before: {open('/proc/loadavg').read().split()[:3]}")
     with tempfile.TemporaryDirectory() as tmp:
-        times = {n: {w: [] for w in WIDTHS} for n in names}
+        times = {n: {w: [] for w in widths} for n in names}
         before = {n: {w: [] for w in (1, 8)} for n in names}
         rays = {}
         for r in range(a.rounds):
-            order = WIDTHS[r % 3:] + WIDTHS[:r % 3]
+            turn = r % len(widths)
+            order = widths[turn:] + widths[:turn]
             for n in names:
                 for w in order:
                     # This build and the baseline take turns at going first.
@@ -146,27 +154,33 @@ def main():
             print(f"round {r + 1} of {a.rounds}, load {open('/proc/loadavg').read().split()[:3]}",
                   file=sys.stderr)
         print()
-        head = "| scene | scalar | 4-wide | 8-wide | scalar / 8-wide | 8-wide Mrays/s " \
-               "| occupancy camera, shadow, secondary | at node visits |"
+        head = "| scene | " + " | ".join("scalar" if w == 1 else f"{w}-wide" for w in widths)
+        head += " | scalar / 8-wide |"
+        if 16 in widths:
+            head += " 8-wide / 16-wide |"
+        head += f" {widest}-wide Mrays/s | occupancy camera, shadow, secondary | at node visits |"
         if a.baseline:
             head += " 8-wide, baseline / this | scalar, baseline / this |"
         if a.perf:
-            head += " largest functions (8-wide, self) |"
+            head += f" largest functions ({widest}-wide, self) |"
         print(head)
         print("|" + "---|" * (head.count("|") - 1))
         singles = []
         for n in names:
-            med = {w: statistics.median(times[n][w]) for w in WIDTHS}
-            occ, visits, single = occupancy(n, tmp)
-            row = (f"| `{n}` | {med[1]:.3f} s | {med[4]:.3f} s | {med[8]:.3f} s "
-                   f"| {med[1] / med[8]:.2f}x | {rays[n] / med[8] / 1e6:.1f} "
-                   f"| {occ.get('camera', '-')}, {occ.get('shadow', '-')}, "
-                   f"{occ.get('secondary', '-')} | {visits} |")
+            med = {w: statistics.median(times[n][w]) for w in widths}
+            occ, visits, single = occupancy(n, widest, tmp)
+            row = f"| `{n}` | " + " | ".join(f"{med[w]:.3f} s" for w in widths)
+            row += f" | {med[1] / med[8]:.2f}x |"
+            if 16 in widths:
+                row += f" {med[8] / med[16]:.2f}x |"
+            row += (f" {rays[n] / med[widest] / 1e6:.1f} "
+                    f"| {occ.get('camera', '-')}, {occ.get('shadow', '-')}, "
+                    f"{occ.get('secondary', '-')} | {visits} |")
             if a.baseline:
                 for w in (8, 1):
                     row += f" {statistics.median(before[n][w]) / med[w]:.2f}x |"
             if a.perf:
-                row += f" {hottest(n, tmp)} |"
+                row += f" {hottest(n, widest, tmp)} |"
             print(row)
             if single:
                 singles.append(f"- `{n}`: {single}")

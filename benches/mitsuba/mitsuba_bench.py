@@ -361,10 +361,11 @@ def loadavg():
         return float(f.read().split()[0])
 
 
-def run_ours(raytracer, scene, threads, work):
+def run_ours(raytracer, scene, threads, work, packet_width):
     report = os.path.join(work, "ours.json")
     image = os.path.join(work, "ours.png")
-    cmd = [raytracer, scene, "--threads", str(threads), "--packet-width", "8",
+    width = ["--packet-width", str(packet_width)] if packet_width else []
+    cmd = [raytracer, scene, "--threads", str(threads), *width,
            "--sampler", "independent", "-q", "--report", report, "-o", image]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
@@ -443,6 +444,9 @@ def measure(args, raytracer, scenes, threads, work):
     hold = args.hold_avx2 == "yes" or (
         args.hold_avx2 == "auto" and (target["avx512"] or target["vector_width"] != 8)
     )
+    version = subprocess.run([raytracer, "--version"], capture_output=True, text=True).stdout
+    width = args.packet_width or "the default"
+    print(f"ours: {version.strip()}; packet width {width}", flush=True)
     print(f"mitsuba {probe['mitsuba']}, drjit {probe['drjit']}, LLVM {probe['llvm']}; "
           f"Dr.Jit's LLVM target: {target['cpu']}, {target['vector_width']} lanes, "
           f"AVX-512 {'on' if target['avx512'] else 'off'}"
@@ -463,7 +467,7 @@ def measure(args, raytracer, scenes, threads, work):
                     for kind, held in kinds:
                         load = loadavg()
                         if kind == "ours":
-                            r = run_ours(raytracer, scene, t, work)
+                            r = run_ours(raytracer, scene, t, work, args.packet_width)
                         elif kind == "scalar":
                             r = run_mitsuba(scene, t, "scalar_rgb", 0, False, work)
                         else:
@@ -513,7 +517,7 @@ def summarize(runs):
     loads = [r["loadavg"] for r in runs]
     rounds = max(r["round"] for r in runs)
     print(f"\nmedians over {rounds} rounds, seconds (range); load average {min(loads):.2f}-{max(loads):.2f}")
-    print("ours: raytracer SCENE --threads T --packet-width 8 --sampler independent -q --report")
+    print("ours: raytracer SCENE --threads T [--packet-width W] --sampler independent -q --report")
     print("Mitsuba llvm_ad_rgb: first render (empty DRJIT_CACHE_DIR, JIT compilation included, and")
     print("what Dr.Jit's kernel history counts of it: tracing to LLVM IR and LLVM's compilation) and")
     print("warm renders (the median of each process's warm renders); ours vs X = t_X / t_ours,")
@@ -563,6 +567,7 @@ def main():
     p.add_argument("--scenes", default=",".join(SCENES))
     p.add_argument("--threads", default="1,2", help="thread counts, comma-separated")
     p.add_argument("--rounds", type=int, default=5)
+    p.add_argument("--packet-width", help="ours' --packet-width (default: the binary's own)")
     p.add_argument("--warm", type=int, default=3, help="warm renders a Mitsuba process")
     p.add_argument("--scalar-rounds", type=int, default=1,
                    help="rounds that also run Mitsuba's scalar_rgb variant (slow)")

@@ -176,11 +176,11 @@ fn main() -> std::io::Result<()> {
     write(path, &scene, &sets)?;
 
     println!(
-        "ours: {} triangles, {} spheres, build {:.2} ms (AVX2 compiled in: {})",
+        "ours: {} triangles, {} spheres, build {:.2} ms (lanes: {})",
         scene.triangles.len(),
         scene.spheres.len(),
         build.as_secs_f64() * 1e3,
-        raytracer::lanes::AVX2
+        raytracer::lanes::COMPILED
     );
     let only = args.get(5);
     for s in sets.iter().filter(|s| only.is_none_or(|o| o == s.name)) {

@@ -26,12 +26,10 @@ use crate::geometry::triangle::{
     edge_functions, inside_edges, shear, watertight_distance, Columns, TrianglePool, WatertightRay,
 };
 use crate::geometry::{Aabb, PrimKind, Ray};
+use crate::lanes::MAX_WIDTH;
 use crate::lanes::{set_lanes, Lane, Mask, V3};
 use crate::scene::Scene;
 use glam::Vec3;
-
-/// The widest packet.
-pub const MAX_WIDTH: usize = 8;
 
 /// A packet of rays with the per-lane constants of the box and sphere tests, computed
 /// lane-wise with the scalar constructors' operations (`BoxRay::new`, `SphereRay::new`),

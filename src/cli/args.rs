@@ -8,20 +8,20 @@ use raytracer::sampling::SamplerKind;
 use raytracer::{PacketWidth, Rect, Region};
 use std::path::PathBuf;
 
-/// `--version` says whether the AVX2 lanes were compiled in (`.cargo/config.toml`).
-const VERSION: &str = if cfg!(target_feature = "avx2") {
-    concat!(env!("CARGO_PKG_VERSION"), " (AVX2 compiled in)")
-} else {
-    concat!(
+/// `--version` names the instruction set compiled in (`.cargo/config.toml`) and the
+/// packet widths it holds in one register (`raytracer::lanes::COMPILED`).
+fn version() -> String {
+    format!(
+        "{} ({})",
         env!("CARGO_PKG_VERSION"),
-        " (without AVX2: 8-wide packets run as two halves)"
+        raytracer::lanes::COMPILED
     )
-};
+}
 
 #[derive(Debug, Parser)]
 #[command(
     name = "raytracer",
-    version = VERSION,
+    version = version(),
     about = "A data-oriented SIMD packet ray tracer",
     args_conflicts_with_subcommands = true,
     subcommand_negates_reqs = true
@@ -101,8 +101,9 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = Sampler::Sobol)]
     pub sampler: Sampler,
 
-    /// Rays per packet: 1 (the scalar reference), 4 or 8; the image is the same bits
-    /// [default: the widest compiled in, 8 with AVX2, else 4].
+    /// Rays per packet: 1 (the scalar reference), 4, 8 or 16; the image is the same bits
+    /// [default: the widest that pays on the ISA compiled in: 16 with AVX-512,
+    /// 8 with AVX2, else 4].
     #[arg(long, default_value_t = PacketWidth::widest(), hide_default_value = true)]
     pub packet_width: PacketWidth,
 
@@ -337,7 +338,7 @@ pub struct SweepArgs {
     /// Samplers to sweep.
     #[arg(long, value_enum, value_delimiter = ',', default_values_t = Sampler::ALL)]
     pub samplers: Vec<Sampler>,
-    /// Packet widths to sweep: 1, 4 or 8 [default: the widest compiled in].
+    /// Packet widths to sweep: 1, 4, 8 or 16 [default: the widest compiled in].
     #[arg(long, value_delimiter = ',', default_values_t = [PacketWidth::widest()], hide_default_value = true)]
     pub packet_widths: Vec<PacketWidth>,
     /// Seed of the swept renders.

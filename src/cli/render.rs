@@ -20,8 +20,17 @@ enum Pixels {
 /// Render `o` on the current rayon pool of `threads` threads.
 pub fn run(o: &RenderOptions, threads: usize) -> anyhow::Result<()> {
     let start = Instant::now();
-    if o.settings.packet_width == PacketWidth::Eight && !raytracer::lanes::AVX2 && o.notes {
-        to_stderr!("note: built without AVX2: 8-wide packets run as two 4-wide halves");
+    if o.notes {
+        let halves = match o.settings.packet_width {
+            PacketWidth::Eight if !raytracer::lanes::AVX2 => Some(("AVX2", 8, 4)),
+            PacketWidth::Sixteen if !raytracer::lanes::AVX512 => Some(("AVX-512", 16, 8)),
+            _ => None,
+        };
+        if let Some((isa, wide, half)) = halves {
+            to_stderr!(
+                "note: built without {isa}: {wide}-wide packets run as two {half}-wide halves"
+            );
+        }
     }
     let file = super::scene_file(&o.scene)?;
     o.check_outputs_against(&file.input_files())?;

@@ -12,6 +12,8 @@ struct Report<'a> {
     height: u32,
     spp: u32,
     packet_width: u32,
+    /// The instruction set compiled in (`raytracer::lanes::ISA`): "AVX-512", "AVX2", ...
+    isa: &'static str,
     threads: usize,
     accel: &'static str,
     specialize: bool,
@@ -104,6 +106,7 @@ pub fn json(run: &Run) -> anyhow::Result<String> {
         height: r.height(),
         spp: r.spp(),
         packet_width: run.options.settings.packet_width.rays(),
+        isa: raytracer::lanes::ISA,
         threads: run.threads,
         accel: run.options.scene_options.accel.name(),
         specialize: run.options.settings.specialize,

@@ -1,8 +1,8 @@
 //! Lane kernels against their scalar selves: a kernel written once over `Lane` must give,
-//! on every lane at widths 4 and 8, the bits it gives at `f32` on that lane's inputs. The
+//! on every lane at widths 4, 8 and 16, the bits it gives at `f32` on that lane's inputs. The
 //! geometry kernels' tests and the integrator's shading kernels' tests share it.
 
-use crate::lanes::{Lane, V3};
+use crate::lanes::{F32x16, Lane, V3};
 use glam::Vec4;
 use wide::f32x8;
 
@@ -52,7 +52,7 @@ fn inputs(n_in: usize, chunks: usize) -> Vec<Vec<f32>> {
         .collect()
 }
 
-/// Every output lane of `K` at widths 4 and 8 has the bits of the scalar kernel on
+/// Every output lane of `K` at widths 4, 8 and 16 has the bits of the scalar kernel on
 /// that lane's inputs (any NaN matching any NaN).
 pub(crate) fn check<K: Kernel>(name: &str) {
     let chunks = 2000;
@@ -85,6 +85,25 @@ pub(crate) fn check<K: Kernel>(name: &str) {
                         w8.lane(k),
                     );
                 }
+            }
+        }
+    }
+    for c in 0..chunks / 2 {
+        let at = |i: usize| -> Vec<f32> { x.iter().map(|v| v[16 * c + i]).collect() };
+        let sixteen = K::eval::<F32x16>(
+            &x.iter()
+                .map(|v| F32x16::from_fn(|i| v[16 * c + i]))
+                .collect::<Vec<_>>(),
+        );
+        for k in 0..16 {
+            let scalar = K::eval::<f32>(&at(k));
+            for (o, (w16, want)) in sixteen.iter().zip(scalar).enumerate() {
+                assert!(
+                    same(w16.lane(k), want),
+                    "{name}: output {o}, lane {k}, inputs {:?}: scalar {want:e}, 16 wide {:e}",
+                    at(k),
+                    w16.lane(k),
+                );
             }
         }
     }

@@ -19,13 +19,14 @@ pub use scatter::{random_unit_vector_lanes, scatter};
 pub use shade::{footprint, PacketPixels};
 
 use crate::accel::cull::{Cone, Cull, CullTargets};
-use crate::accel::packet::{PacketHits, MAX_WIDTH};
+use crate::accel::packet::PacketHits;
 use crate::accel::shadow::ShadowBoxes;
 use crate::accel::{Accel, Context, TraversalStats};
 use crate::geometry::spawn::{planar_point_lanes, spawn_ray, sphere_point_lanes, ErrorPoint};
 use crate::geometry::sphere::SpherePool;
 use crate::geometry::QuadPool;
 use crate::geometry::{Hit, PrimKind, Ray};
+use crate::lanes::MAX_WIDTH;
 use crate::lanes::{all_equal, Lane, Mask, V3};
 use crate::material::{reflect_lanes, schlick_lanes, Phong};
 use crate::sampling::{KeyLanes, SampleKey, Sampler};

@@ -12,7 +12,7 @@
 use super::shade::{PacketPixels, Paths};
 use super::{RayCounts, Tracer};
 use crate::accel::cull::Cull;
-use crate::accel::packet::MAX_WIDTH;
+use crate::lanes::MAX_WIDTH;
 use crate::lanes::{set_lanes, Lane, Mask, V3};
 use crate::sampling::KeyLanes;
 
@@ -321,5 +321,6 @@ mod tests {
     fn regrouped_lanes_give_the_bits_they_give_in_place() {
         regrouped_lanes_give_the_bits_in_place::<glam::Vec4>();
         regrouped_lanes_give_the_bits_in_place::<f32x8>();
+        regrouped_lanes_give_the_bits_in_place::<crate::lanes::F32x16>();
     }
 }

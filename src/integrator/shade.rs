@@ -25,12 +25,13 @@ use super::{
     specular_cosine, PhongLanes, RayCounts, SurfaceLanes, Tracer, T_MIN,
 };
 use crate::accel::cull::Cull;
-use crate::accel::packet::{PacketHits, RayPacket, MAX_WIDTH};
+use crate::accel::packet::{PacketHits, RayPacket};
 use crate::accel::shadow::{origins_box, Candidates};
 use crate::accel::Context;
 use crate::geometry::spawn::{spawn_origin, spawn_origins};
 use crate::geometry::Ray;
 use crate::lanes::math::pow;
+use crate::lanes::MAX_WIDTH;
 use crate::lanes::{Lane, Mask, V3};
 use crate::material::{Material, Phong};
 use crate::sampling::{slot, KeyLanes};
@@ -55,20 +56,31 @@ const MIXED_PHONG: u32 = u32::MAX - 1;
 /// than a table lookup per lane (`ShadeTables::few`).
 const FEW_OBJECTS: usize = 8;
 
-/// The lanes of each class, from the lanes' classes. Byte k of `onehot` is
-/// 1 << (lane k's class); class c's lanes are bit c of each byte, gathered into the top
-/// byte by one multiply (its partial products land on distinct bits, so nothing
-/// carries). All in registers: `by_class[class] |= 1 << k` went through memory and
-/// failed its store-to-load forwarding when the mask was read back (perf).
+/// The lanes of each class, from the classes of the first `width` lanes, eight lanes
+/// a word. Byte k of `onehot` is 1 << (lane k's class); class c's lanes are bit c of
+/// each byte, gathered into the top byte by one multiply (its partial products land on
+/// distinct bits, so nothing carries). All in registers: `by_class[class] |= 1 << k`
+/// went through memory and failed its store-to-load forwarding when the mask was read
+/// back (perf).
 #[inline(always)]
-fn lanes_by_class(classes: [u8; MAX_WIDTH]) -> [u32; CLASSES] {
-    let mut onehot = 0u64;
-    for (k, &c) in classes.iter().enumerate() {
-        onehot |= (1u64 << c) << (8 * k);
-    }
-    std::array::from_fn(|c| {
+fn lanes_by_class(classes: [u8; MAX_WIDTH], width: usize) -> [u32; CLASSES] {
+    let onehot = |eight: &[u8]| {
+        let mut onehot = 0u64;
+        for (k, &c) in eight.iter().enumerate() {
+            onehot |= (1u64 << c) << (8 * k);
+        }
+        onehot
+    };
+    let gather = |onehot: u64, c: usize| {
         ((onehot >> c & 0x0101_0101_0101_0101).wrapping_mul(0x0102_0408_1020_4080) >> 56) as u32
-    })
+    };
+    let low = onehot(&classes[..8]);
+    if width <= 8 {
+        std::array::from_fn(|c| gather(low, c))
+    } else {
+        let high = onehot(&classes[8..16]);
+        std::array::from_fn(|c| gather(low, c) | gather(high, c) << 8)
+    }
 }
 
 /// What shading needs of a hit's object, indexed by object + 1 (entry 0: no hit), so
@@ -127,9 +139,11 @@ impl ShadeTables {
     }
 }
 
-/// The pixels a packet of `width` lanes covers: 4x2 for 8 lanes, 2x2 for 4, 1x1 for 1.
+/// The pixels a packet of `width` lanes covers: 4x4 for 16 lanes, 4x2 for 8, 2x2 for 4,
+/// 1x1 for 1.
 pub const fn footprint(width: usize) -> (u32, u32) {
     match width {
+        16 => (4, 4),
         8 => (4, 2),
         4 => (2, 2),
         _ => (1, 1),
@@ -493,7 +507,7 @@ impl Tracer<'_> {
                     t.class[object[k] as usize + 1]
                 }
             });
-            (lanes_by_class(classes), MIXED_PHONG)
+            (lanes_by_class(classes, L::WIDTH), MIXED_PHONG)
         };
         let (mut color, mut weight) = (paths.color, paths.weight);
 
@@ -775,7 +789,7 @@ mod tests {
     use super::*;
 
     /// Every assignment of classes (and "no lane") to the first five lanes, with the
-    /// other three cycling: the masks are those of a plain loop.
+    /// others cycling: the masks are those of a plain loop, at 8 and at 16 lanes.
     #[test]
     fn lanes_by_class_is_the_plain_loop() {
         let values = [
@@ -800,13 +814,15 @@ mod tests {
                 c /= values.len();
                 v as u8
             });
-            let mut expected = [0u32; CLASSES];
-            for (k, &cl) in classes.iter().enumerate() {
-                if (cl as usize) < CLASSES {
-                    expected[cl as usize] |= 1 << k;
+            for width in [8, 16] {
+                let mut expected = [0u32; CLASSES];
+                for (k, &cl) in classes.iter().enumerate().take(width) {
+                    if (cl as usize) < CLASSES {
+                        expected[cl as usize] |= 1 << k;
+                    }
                 }
+                assert_eq!(lanes_by_class(classes, width), expected, "{classes:?}");
             }
-            assert_eq!(lanes_by_class(classes), expected, "{classes:?}");
             n += 1;
         }
         assert_eq!(n, 32768);

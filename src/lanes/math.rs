@@ -421,8 +421,26 @@ mod tests {
         (got as f64 - want).abs() / ulp
     }
 
-    /// Every width gives the scalar bits, on chunks of eight inputs.
+    /// Every width gives the scalar bits, on chunks of eight inputs (sixteen for 16).
     fn same_at_every_width(xs: &[f32], ns: &[f32]) {
+        for (cx, cn) in xs.chunks(16).zip(ns.chunks(16)) {
+            let at = |c: &[f32], i: usize| c[i.min(c.len() - 1)];
+            let x16 = crate::lanes::F32x16::from_fn(|i| at(cx, i));
+            let n16 = crate::lanes::F32x16::from_fn(|i| at(cn, i));
+            let p16 = pow(x16, n16);
+            let (s16, c16) = sin_cos_turns(x16);
+            for k in 0..16 {
+                let (x, n) = (at(cx, k), at(cn, k));
+                let (s, c) = sin_cos_turns(x);
+                assert_eq!(
+                    pow(x, n).to_bits(),
+                    p16.lane(k).to_bits(),
+                    "pow({x:e}, {n:e}) 16"
+                );
+                assert_eq!(s.to_bits(), s16.lane(k).to_bits(), "sin({x:e}) 16 wide");
+                assert_eq!(c.to_bits(), c16.lane(k).to_bits(), "cos({x:e}) 16 wide");
+            }
+        }
         for (cx, cn) in xs.chunks(8).zip(ns.chunks(8)) {
             let at = |c: &[f32], i: usize| c[i.min(c.len() - 1)];
             let x8 = <f32x8 as Lane>::from_fn(|i| at(cx, i));

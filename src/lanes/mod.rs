@@ -16,6 +16,9 @@
 //! widths would hide in the seam. Their tests are in `tests.rs`.
 
 pub mod math;
+mod sixteen;
+
+pub use sixteen::{F32x16, Mask16, AVX512};
 
 use glam::{BVec4A, Vec4};
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
@@ -23,6 +26,31 @@ use wide::{f32x8, i32x8, CmpEq, CmpGe, CmpGt, CmpLe, CmpLt};
 
 /// Whether the 8-wide lanes run as one AVX register (else as two SSE halves).
 pub const AVX2: bool = cfg!(target_feature = "avx2");
+
+/// The vector instruction set the lanes were compiled for (`.cargo/config.toml`):
+/// `"AVX-512"` (16 lanes a register), `"AVX2"` (8), `"SSE2"` (4) or `"portable"`.
+pub const ISA: &str = if AVX512 {
+    "AVX-512"
+} else if AVX2 {
+    "AVX2"
+} else if cfg!(target_feature = "sse2") {
+    "SSE2"
+} else {
+    "portable"
+};
+
+/// What the lanes compiled to, in a phrase for `--version`, reports and benchmarks.
+pub const COMPILED: &str = if AVX512 {
+    "AVX-512: packets of 4, 8 and 16 rays in one register each; default width 16"
+} else if AVX2 {
+    "AVX2: packets of 4 and 8 rays in one register, 16 as two halves; default width 8"
+} else {
+    "without AVX2: packets of 4 rays in one register, 8 and 16 in halves; default width 4"
+};
+
+/// The most lanes of any `Lane` (`F32x16`): the size of the per-lane arrays that
+/// every width shares.
+pub const MAX_WIDTH: usize = 16;
 
 /// The lanes set in the bit mask `mask`, in lane order.
 #[inline(always)]
@@ -164,7 +192,7 @@ fn narrow(v: wide::f64x4) -> [f32; 4] {
 /// `pick` over the lanes as a pairwise tree: lane i against lane i + w/2, halving w.
 #[inline(always)]
 fn reduce_tree<L: Lane>(x: L, pick: impl Fn(f32, f32) -> f32) -> f32 {
-    let mut v = [0.0; 8];
+    let mut v = [0.0; MAX_WIDTH];
     for (i, s) in v.iter_mut().enumerate().take(L::WIDTH) {
         *s = x.lane(i);
     }
@@ -610,7 +638,7 @@ impl<L: Lane> V3<L> {
     /// Lane `i` is `f(i)`.
     #[inline(always)]
     pub fn from_fn(mut f: impl FnMut(usize) -> glam::Vec3) -> Self {
-        let mut xs = [glam::Vec3::ZERO; 8];
+        let mut xs = [glam::Vec3::ZERO; MAX_WIDTH];
         for (i, x) in xs.iter_mut().enumerate().take(L::WIDTH) {
             *x = f(i);
         }

@@ -4,13 +4,13 @@
 
 use super::*;
 
-/// The 8-wide reductions give the default tree's bits (the scalar `a < b ? a : b`
-/// pairwise), signed zeros and infinities included.
+/// The 8- and 16-wide reductions give the default tree's bits (the scalar
+/// `a < b ? a : b` pairwise), signed zeros and infinities included.
 #[test]
 fn wide_reductions_are_the_default_tree() {
-    fn tree(v: [f32; 8], pick: fn(f32, f32) -> f32) -> f32 {
+    fn tree<const N: usize>(v: [f32; N], pick: fn(f32, f32) -> f32) -> f32 {
         let mut v = v;
-        let mut w = 8;
+        let mut w = N;
         while w > 1 {
             w /= 2;
             for i in 0..w {
@@ -31,17 +31,28 @@ fn wide_reductions_are_the_default_tree() {
     ];
     let mut state = 1u64;
     for _ in 0..20_000 {
-        let v: [f32; 8] = std::array::from_fn(|_| {
+        let v: [f32; 16] = std::array::from_fn(|_| {
             state = state
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);
             values[(state >> 61) as usize]
         });
-        let x = f32x8::from(v);
-        let min = tree(v, |a, b| if a < b { a } else { b });
-        let max = tree(v, |a, b| if a > b { a } else { b });
-        assert_eq!(x.reduce_min().to_bits(), min.to_bits(), "{v:?}");
-        assert_eq!(x.reduce_max().to_bits(), max.to_bits(), "{v:?}");
+        let lo: [f32; 8] = std::array::from_fn(|i| v[i]);
+        let (x8, x16) = (f32x8::from(lo), F32x16::from_fn(|i| v[i]));
+        let less = |a: f32, b: f32| if a < b { a } else { b };
+        let more = |a: f32, b: f32| if a > b { a } else { b };
+        assert_eq!(
+            x8.reduce_min().to_bits(),
+            tree(lo, less).to_bits(),
+            "{lo:?}"
+        );
+        assert_eq!(
+            x8.reduce_max().to_bits(),
+            tree(lo, more).to_bits(),
+            "{lo:?}"
+        );
+        assert_eq!(x16.reduce_min().to_bits(), tree(v, less).to_bits(), "{v:?}");
+        assert_eq!(x16.reduce_max().to_bits(), tree(v, more).to_bits(), "{v:?}");
     }
 }
 
@@ -58,8 +69,16 @@ fn broadcast_copies_one_lanes_bits() {
         0x4049_0fdb,
         0x8000_0002,
         0x7f80_0000,
+        0x0000_0000,
+        0xffc0_0001,
+        0x3f80_0001,
+        0x807f_ffff,
+        0x7f7f_ffff,
+        0xbf80_0000,
+        0x0040_0000,
+        0x4120_0000,
     ];
-    fn check<L: Lane>(bits: &[u32; 8]) {
+    fn check<L: Lane>(bits: &[u32; 16]) {
         let v = L::from_fn(|k| f32::from_bits(bits[k]));
         for (i, &want) in bits.iter().enumerate().take(L::WIDTH) {
             let b = v.broadcast(i);
@@ -71,6 +90,7 @@ fn broadcast_copies_one_lanes_bits() {
     check::<f32>(&bits);
     check::<Vec4>(&bits);
     check::<f32x8>(&bits);
+    check::<F32x16>(&bits);
 }
 
 /// Only the first `width` entries count, and any single differing bit is seen.
@@ -84,9 +104,14 @@ fn all_equal_looks_at_the_first_width_entries() {
 }
 
 fn check_rules<L: Lane>() {
-    let nan = f32::NAN;
-    let a = L::from_fn(|i| [nan, 1.0, 3.0, -0.0, 2.0, nan, 7.0, 0.0][i]);
-    let b = L::from_fn(|i| [2.0, nan, 1.0, 0.0, 2.0, nan, 8.0, -0.0][i]);
+    let (nan, inf, tiny) = (f32::NAN, f32::INFINITY, f32::from_bits(1));
+    let a = [
+        nan, 1.0, 3.0, -0.0, 2.0, nan, 7.0, 0.0, -inf, 0.5, tiny, -3.0, inf, 1e30, 0.0, -2.5,
+    ];
+    let b = [
+        2.0, nan, 1.0, 0.0, 2.0, nan, 8.0, -0.0, 1.0, -inf, 3.0, -tiny, inf, 1e-30, 0.0, 7.0,
+    ];
+    let (a, b) = (L::from_fn(|i| a[i]), L::from_fn(|i| b[i]));
     let min = a.min(b);
     let max = a.max(b);
     for i in 0..L::WIDTH {
@@ -96,15 +121,45 @@ fn check_rules<L: Lane>() {
         assert_eq!(min.lane(i).to_bits(), want_min.to_bits(), "min lane {i}");
         assert_eq!(max.lane(i).to_bits(), want_max.to_bits(), "max lane {i}");
     }
-    let (lt, eq, ne, neg) = (a.lt(b), a.eq(b), a.ne(b), a.flip_sign());
+    let (lt, le, gt, ge) = (a.lt(b), a.le(b), a.gt(b), a.ge(b));
+    let (eq, ne, neg) = (a.eq(b), a.ne(b), a.flip_sign());
+    let arithmetic = [
+        a + b,
+        a - b,
+        a * b,
+        a / b,
+        a.sqrt(),
+        a.abs(),
+        a.add_bits(-3),
+    ];
     for i in 0..L::WIDTH {
         let (x, y) = (a.lane(i), b.lane(i));
         assert_eq!(lt.bits() >> i & 1 != 0, x < y, "lt lane {i}");
+        assert_eq!(le.bits() >> i & 1 != 0, x <= y, "le lane {i}");
+        assert_eq!(gt.bits() >> i & 1 != 0, x > y, "gt lane {i}");
+        assert_eq!(ge.bits() >> i & 1 != 0, x >= y, "ge lane {i}");
         assert_eq!(eq.bits() >> i & 1 != 0, x == y, "eq lane {i}");
         assert_eq!(ne.bits() >> i & 1 != 0, x != y, "ne lane {i}");
         assert_eq!(neg.lane(i).to_bits(), (-x).to_bits(), "flip_sign lane {i}");
+        let want = [
+            x + y,
+            x - y,
+            x * y,
+            x / y,
+            x.sqrt(),
+            x.abs(),
+            x.add_bits(-3),
+        ];
+        for (op, (got, want)) in arithmetic.iter().zip(want).enumerate() {
+            // NaN payloads may differ between instructions; NaN-ness may not.
+            let (g, w) = (got.lane(i), want);
+            assert!(
+                g.to_bits() == w.to_bits() || (g.is_nan() && w.is_nan()),
+                "operation {op} lane {i}: {g:e} against {w:e}"
+            );
+        }
     }
-    let bits = 0b1010_0110 & ((1u32 << L::WIDTH) - 1);
+    let bits = 0b0110_1001_1010_0110 & ((1u64 << L::WIDTH) - 1) as u32;
     assert_eq!(L::Mask::from_bits(bits).bits(), bits);
     let s = L::select(L::Mask::from_bits(bits), L::splat(1.0), L::splat(2.0));
     for i in 0..L::WIDTH {
@@ -123,6 +178,14 @@ fn check_reduce_min<L: Lane>() {
         9.0,
         f32::NEG_INFINITY,
         0.25,
+        4.0,
+        -0.0,
+        12.0,
+        f32::NEG_INFINITY,
+        1.5,
+        0.0,
+        -1.5,
+        f32::INFINITY,
     ];
     for at in 0..L::WIDTH {
         let v = L::from_fn(|i| if i == at { -7.5 } else { base[i].max(-2.0) });
@@ -141,12 +204,13 @@ fn reduce_min_finds_the_smallest_lane_at_every_width() {
     check_reduce_min::<f32>();
     check_reduce_min::<Vec4>();
     check_reduce_min::<f32x8>();
+    check_reduce_min::<F32x16>();
 }
 
 /// `next_up`/`next_down` of every width against the std functions, bit for bit, on
-/// `xs` (eight at a time; the `f32` lane is the std function itself).
+/// `xs` (sixteen at a time; the `f32` lane is the std function itself).
 fn check_next(xs: &[u32]) {
-    fn check<L: Lane>(chunk: &[f32; 8]) {
+    fn check<L: Lane>(chunk: &[f32; 16]) {
         for half in chunk.chunks(L::WIDTH) {
             let v = L::from_fn(|i| half[i]);
             let (up, down) = (v.next_up(), v.next_down());
@@ -193,14 +257,15 @@ fn check_next(xs: &[u32]) {
             }
         }
     }
-    for c in xs.chunks(8) {
-        let mut chunk = [0.0f32; 8];
+    for c in xs.chunks(16) {
+        let mut chunk = [0.0f32; 16];
         for (i, &b) in c.iter().enumerate() {
             chunk[i] = f32::from_bits(b);
         }
         check::<f32>(&chunk);
         check::<Vec4>(&chunk);
         check::<f32x8>(&chunk);
+        check::<F32x16>(&chunk);
     }
 }
 
@@ -244,7 +309,7 @@ fn next_up_and_down_match_std_on_a_sweep_of_all_floats() {
 
 proptest::proptest! {
     #[test]
-    fn next_up_and_down_match_std_on_random_bits(bits in proptest::collection::vec(proptest::prelude::any::<u32>(), 8)) {
+    fn next_up_and_down_match_std_on_random_bits(bits in proptest::collection::vec(proptest::prelude::any::<u32>(), 16)) {
         check_next(&bits);
     }
 }
@@ -254,4 +319,31 @@ fn every_width_follows_the_same_min_max_and_mask_rules() {
     check_rules::<f32>();
     check_rules::<Vec4>();
     check_rules::<f32x8>();
+    check_rules::<F32x16>();
+}
+
+/// `-` on 16 lanes is what `-` is on 8 (0 − x, so +0 for +0), lane for lane: generic
+/// kernels that negate give the same bits at both widths.
+#[test]
+fn sixteen_lanes_negate_as_eight_do() {
+    let v = [
+        0.0,
+        -0.0,
+        1.0,
+        -1.0,
+        f32::INFINITY,
+        f32::from_bits(1),
+        3.5,
+        -2.25,
+    ];
+    let eight = -f32x8::from(v);
+    let sixteen = -F32x16::from_fn(|i| v[i % 8]);
+    for i in 0..16 {
+        assert_eq!(
+            sixteen.lane(i).to_bits(),
+            eight.lane(i % 8).to_bits(),
+            "lane {i}"
+        );
+    }
+    assert_eq!((-F32x16::splat(0.0)).lane(3).to_bits(), 0);
 }

@@ -68,7 +68,7 @@ impl Light {
     /// `sample_triangle`, with one primitive splatted, several gathered per lane.
     #[inline(always)]
     pub fn sample_lanes<L: Lane>(&self, pick: L, xi1: L, xi2: L) -> V3<L> {
-        let index = |n: usize| -> [usize; 8] {
+        let index = |n: usize| -> [usize; crate::lanes::MAX_WIDTH] {
             std::array::from_fn(|k| {
                 if k < L::WIDTH {
                     ((pick.lane(k) * n as f32) as usize).min(n - 1)

@@ -139,7 +139,7 @@ impl Rng {
         let mut d = [0.0f32; 3];
         d[axis % 3] = if axis < 3 { 1.0 } else { -1.0 };
         for (k, c) in d.iter_mut().enumerate() {
-            if k != axis % 3 && self.next_u64() % 2 == 0 {
+            if k != axis % 3 && self.next_u64().is_multiple_of(2) {
                 *c = -0.0;
             }
         }
@@ -148,7 +148,7 @@ impl Rng {
 
     /// +1 or −1.
     pub fn sign(&mut self) -> f32 {
-        if self.next_u64() % 2 == 0 {
+        if self.next_u64().is_multiple_of(2) {
             1.0
         } else {
             -1.0

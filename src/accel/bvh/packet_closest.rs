@@ -4,10 +4,11 @@
 use super::node::{decode_leaf, Node8, Wide, EMPTY, LEAF};
 use super::single::RayQuery;
 use super::Bvh;
-use crate::accel::packet::{ids, in_play, PacketQuery, RayPacket, MAX_WIDTH};
+use crate::accel::packet::{ids, in_play, PacketQuery, RayPacket};
 use crate::accel::stack::{TraversalStack, STACK4, STACK8};
 use crate::accel::Context;
 use crate::geometry::{beats, Hit, PrimKind};
+use crate::lanes::MAX_WIDTH;
 use crate::lanes::{set_lanes, Lane, Mask};
 use std::mem::MaybeUninit;
 use wide::f32x8;
@@ -575,5 +576,6 @@ mod tests {
         same_as_a_loop::<f32>();
         same_as_a_loop::<Vec4>();
         same_as_a_loop::<f32x8>();
+        same_as_a_loop::<crate::lanes::F32x16>();
     }
 }
