@@ -456,7 +456,9 @@ impl<L: Lane> RayPacket<L> {
     }
 
     /// Subtrees entered by at most this many lanes are finished one ray at a time: a
-    /// lone lane of 8 (none of 4). Measured (benches/probes/packet_probe.rs, callgrind, 400x225x2
+    /// lone lane of 8 or 16 (none of 4). At 16, one lane rather than two: 1.09x → 1.20x
+    /// 16-wide over 8-wide on `lights-over-bunny`, 1.17x → 1.27x on `triangle-light`,
+    /// 0.94x → 1.00x on `big-mesh-close` (benches/corpus, one thread, Zen 4, medians). Measured (benches/probes/packet_probe.rs, callgrind, 400x225x2
     /// camera rays, 8 wide; instructions for bunny-closeup / bunny): finishing alone at
     /// ≤ 0 lanes 171.6M / 110.1M, ≤ 1: 178.1M / 112.9M, ≤ 2: 182.1M / 113.8M, ≤ 3 (the
     /// design's starting point): 188.9M / 115.7M, ≤ 5: 213.5M / 119.7M; whole renders,
@@ -465,7 +467,7 @@ impl<L: Lane> RayPacket<L> {
     /// kept scalar (a few percent of instructions, within the noise in time).
     #[inline]
     pub fn fallback() -> u32 {
-        L::WIDTH as u32 / 8
+        (L::WIDTH >= 8) as u32
     }
 
     /// Entry distances and hit lanes of one box, for lanes with `t_max` (−∞ for lanes not
