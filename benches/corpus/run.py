@@ -3,7 +3,7 @@
 
     cargo build --release
     python3 benches/corpus/run.py [--rounds 5] [--perf] [--only NAME ...]
-        [--widths 1,4,8,16] [--baseline OTHER_BINARY]
+        [--widths 1,4,8,16] [--binary BIN] [--baseline OTHER_BINARY]
 
 For each scene: the render phase's seconds (`--report`'s `render`) at each width, the
 median over rounds, the ratios scalar / 8-wide and 8-wide / 16-wide, the Mrays/s and
@@ -114,6 +114,7 @@ def main():
     parser.add_argument("--perf", action="store_true", help="add the hottest functions")
     parser.add_argument("--only", nargs="*", help="these scenes only")
     parser.add_argument("--baseline", help="another build to compare with, alternated")
+    parser.add_argument("--binary", help="the build to measure (default target/release)")
     parser.add_argument("--widths", default=",".join(map(str, WIDTHS)),
                         help="packet widths, comma-separated (1 and 8 among them)")
     a = parser.parse_args()
@@ -121,6 +122,8 @@ def main():
     if 1 not in widths or 8 not in widths:
         sys.exit("--widths must include 1 and 8")
     widest = max(widths)
+    global BIN
+    BIN = os.path.abspath(a.binary) if a.binary else BIN
     names = CORPUS + [n for n, _ in BUILTIN]
     if a.only:
         names = [n for n in names if n in a.only]
