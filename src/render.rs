@@ -471,7 +471,7 @@ fn accumulate_tile_scalar(
     counts
 }
 
-/// A tile in packets of `L::WIDTH` pixels (4x2 or 2x2); lanes past the tile's edge are
+/// A tile in packets of `L::WIDTH` pixels (4x4, 4x2 or 2x2); lanes past the tile's edge are
 /// inactive. Each pixel sums its samples in sample order, as the scalar tile does.
 fn accumulate_tile_packets<L: Lane>(
     tracer: &Tracer,
