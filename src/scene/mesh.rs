@@ -220,7 +220,16 @@ pub fn read_obj(path: &str, text: &str, options: ObjOptions) -> Result<MeshTrian
     let mut triangles = Vec::new();
     let mut file_normals = Vec::new();
     let mut degenerate = 0;
-    let use_file_normals = smooth && faces_name_normals;
+    // The file's normals where every face names one and tobj kept them all, for every
+    // face and in range (a line tobj reads differently from `check_obj` can leave a
+    // group without them); else normals computed from the triangles.
+    let use_file_normals = smooth
+        && faces_name_normals
+        && models.iter().all(|m| {
+            let mesh = &m.mesh;
+            mesh.normal_indices.len() == mesh.indices.len()
+                && (mesh.normal_indices.iter()).all(|&n| n as usize * 3 + 2 < mesh.normals.len())
+        });
     for model in &models {
         let mesh = &model.mesh;
         let vertex = |i: u32| {
@@ -521,6 +530,21 @@ mod tests {
     fn quads_are_triangulated() {
         let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
         assert_eq!(parse_obj("q.obj", text).unwrap().triangles.len(), 2);
+    }
+
+    #[test]
+    fn normals_tobj_left_out_are_computed_not_a_panic() {
+        // A fuzzer's find: every face names a normal, but one group's normals are lost.
+        let text = std::fs::read(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/fuzz/seeds/obj/lost-normals.obj"
+        ))
+        .unwrap();
+        let text = String::from_utf8_lossy(&text);
+        if let Ok(mesh) = parse_obj_smooth("lost-normals.obj", &text) {
+            assert_eq!(mesh.normals.len(), mesh.triangles.len());
+            assert!(mesh.normals.iter().flatten().all(|n| n.is_finite()));
+        }
     }
 
     #[test]
