@@ -9,6 +9,8 @@
 //! line it was reading (`LineCounter`). Lines end at LF or CR LF, or at a lone CR (old
 //! Mac OS files, which tobj would read as one line).
 
+mod parallel;
+
 use super::input;
 use super::limits::MAX_COORDINATE;
 use crate::error::{Error, Result};
@@ -174,8 +176,30 @@ pub fn parse_obj_smooth(path: &str, text: &str) -> Result<MeshTriangles> {
     read_obj(path, text, options)
 }
 
-/// Parse OBJ text with what `options` asks for beside the triangles.
+/// Parse OBJ text with what `options` asks for beside the triangles: read in parallel
+/// (`parallel`) where that reader takes the file, else by the checked tobj path
+/// (`read_obj_checked`), which gives every error. Both give the same mesh.
 pub fn read_obj(path: &str, text: &str, options: ObjOptions) -> Result<MeshTriangles> {
+    let text = with_lf_line_ends(text);
+    match parallel::read(&text, options, parallel::CHUNK_BYTES) {
+        Some(mesh) => Ok(mesh),
+        None => read_obj_checked(path, &text, options),
+    }
+}
+
+/// The parallel reader alone, in chunks of about `chunk_bytes`: `None` where it leaves
+/// the file to the checked path. For tests and the fuzz target, which compare the two.
+pub fn read_obj_parallel(
+    text: &str,
+    options: ObjOptions,
+    chunk_bytes: usize,
+) -> Option<MeshTriangles> {
+    parallel::read(&with_lf_line_ends(text), options, chunk_bytes.max(1))
+}
+
+/// The checked tobj path alone: the text checked line by line (`check_obj`), then read
+/// by tobj.
+pub fn read_obj_checked(path: &str, text: &str, options: ObjOptions) -> Result<MeshTriangles> {
     let smooth = options.smooth;
     let fail = |line: usize, message: String| Error::Obj {
         path: path.to_string(),
@@ -326,7 +350,7 @@ pub(crate) fn unit_normals(triangles: &[[Vec3; 3]], normals: &[[Vec3; 3]]) -> Ve
 fn with_lf_line_ends(text: &str) -> Cow<'_, str> {
     let bytes = text.as_bytes();
     let lone_cr = |i: usize| bytes[i] == b'\r' && bytes.get(i + 1) != Some(&b'\n');
-    if !(0..bytes.len()).any(lone_cr) {
+    if !memchr::memchr_iter(b'\r', bytes).any(lone_cr) {
         return Cow::Borrowed(text);
     }
     // A CR is one byte of one char: replacing chars keeps the text UTF-8.
