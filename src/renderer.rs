@@ -77,13 +77,16 @@ impl SceneFile {
             return Vec::new();
         };
         let mut files = Vec::new();
-        for object in &self.desc.objects {
-            if let ObjectDesc::Mesh { path, .. } = object.get_ref() {
-                let obj = dir.join(path);
-                let libraries = mesh::material_libraries(&obj);
-                files.push(("mesh", obj));
-                files.extend(libraries.into_iter().map(|l| ("material library", l)));
-            }
+        let objects = self.desc.objects.iter().filter_map(|o| match o.get_ref() {
+            ObjectDesc::Mesh { path, .. } => Some(path),
+            _ => None,
+        });
+        let meshes = self.desc.meshes.values().map(|m| &m.get_ref().path);
+        for path in objects.chain(meshes) {
+            let obj = dir.join(path);
+            let libraries = mesh::material_libraries(&obj);
+            files.push(("mesh", obj));
+            files.extend(libraries.into_iter().map(|l| ("material library", l)));
         }
         files
     }

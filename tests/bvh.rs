@@ -25,7 +25,7 @@ impl Pair {
         let la = Accel::build(&mut l, AccelKind::Linear);
         let mut b = scene.clone();
         let ba = Accel::build(&mut b, AccelKind::Bvh);
-        assert!(matches!(ba, Accel::Bvh(_)));
+        assert!(ba.bvh().is_some());
         Pair {
             linear: (l, la),
             bvh: (b, ba),
@@ -233,7 +233,7 @@ fn with_icosphere(text: &str) -> Scene {
 fn mixed_scene_100k_rays_match_brute_force() {
     let scene = mixed_scene();
     let pair = Pair::new(&scene);
-    let Accel::Bvh(b) = &pair.bvh.1 else {
+    let Some(b) = pair.bvh.1.bvh() else {
         unreachable!()
     };
     assert!(
@@ -272,7 +272,7 @@ fn huge_primitives_beside_the_tree_match_brute_force() {
     ] {
         let scene = mixed_scene_with(extra);
         let pair = Pair::new(&scene);
-        let Accel::Bvh(b) = &pair.bvh.1 else {
+        let Some(b) = pair.bvh.1.bvh() else {
             unreachable!()
         };
         assert_eq!(b.linear.clone().map(|r| r.len()), beside);
@@ -292,7 +292,7 @@ fn many_spheres_on_a_huge_ground_sphere() {
     let scene = builtin(path, 48, 2);
     assert_eq!(scene.spheres.len(), 486);
     let mut tree_scene = scene.clone();
-    let Accel::Bvh(b) = Accel::build(&mut tree_scene, AccelKind::Bvh) else {
+    let Some(b) = Accel::build(&mut tree_scene, AccelKind::Bvh).bvh().cloned() else {
         unreachable!()
     };
     assert_eq!(b.linear.clone().map(|r| r.len()), [1, 0, 0]);
@@ -339,7 +339,7 @@ fn assert_shadows_agree(scene: &Scene, n: usize) {
             blocked += 1
         }
         // Any-hit with no light excluded: occluded before t_max ⇔ a closest hit before it.
-        let Accel::Bvh(bvh) = &pair.bvh.1 else {
+        let Some(bvh) = pair.bvh.1.bvh() else {
             unreachable!()
         };
         let t_max = rng.range(0.0, 12.0);
@@ -371,7 +371,7 @@ fn tree_is_the_same_for_one_and_two_threads() {
         pool.install(|| {
             let mut s = scene.clone();
             let a = Accel::build(&mut s, AccelKind::Bvh);
-            let Accel::Bvh(b) = a else { unreachable!() };
+            let Some(b) = a.bvh().cloned() else { unreachable!() };
             (b, s.triangles.id.clone(), s.triangles.a[0].clone())
         })
     };
@@ -439,7 +439,7 @@ fn leaves_under<N>(
 fn the_8_wide_tree_has_the_4_wide_leaves_in_the_same_order() {
     for scene in [bunny_mesh_scene(1), mixed_scene()] {
         let mut s = scene;
-        let Accel::Bvh(b) = Accel::build(&mut s, AccelKind::Bvh) else {
+        let Some(b) = Accel::build(&mut s, AccelKind::Bvh).bvh().cloned() else {
             unreachable!()
         };
         let (mut four, mut eight) = (Vec::new(), Vec::new());
@@ -470,7 +470,7 @@ fn degenerate_inputs() {
     // An empty scene: no tree, every ray misses.
     let empty = scene_with_files("background = [0.2, 0.3, 0.4]\n", &[]);
     let mut e = empty.clone();
-    let Accel::Bvh(b) = Accel::build(&mut e, AccelKind::Bvh) else {
+    let Some(b) = Accel::build(&mut e, AccelKind::Bvh).bvh().cloned() else {
         unreachable!()
     };
     assert!(b.root.is_none());
@@ -556,7 +556,7 @@ fn a_deep_tree_stays_within_the_traversal_stacks() {
         .collect();
     let pair = Pair::new(&mesh_only(&triangles));
     let (scene, accel) = &pair.bvh;
-    let Accel::Bvh(bvh) = accel else {
+    let Some(bvh) = accel.bvh() else {
         unreachable!()
     };
     assert!(bvh.depth >= 20, "4-wide depth {}", bvh.depth);

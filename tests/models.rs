@@ -482,6 +482,8 @@ translate = [0.1, 0, 0]"#;
     );
     let scene = support::scene_with_files(&text, &[("mesh.obj", obj_text(&mesh))]);
     assert!(!scene.triangles.normals.is_empty());
+    // The pawn stored once, placed three times.
+    assert_eq!((scene.prototypes.len(), scene.instances.len()), (1, 3));
     let mut scene = scene;
     let accel = Accel::build(&mut scene, AccelKind::Bvh);
     let film = |width: PacketWidth, threads: usize| {
@@ -709,6 +711,8 @@ fn the_models_scene_places_its_models_in_their_materials() {
         assert!(kinds.contains(&kind), "no {kind} material: {kinds:?}");
     }
     assert!(!scene.triangles.normals.is_empty());
+    // The pawn stored once, placed three times.
+    assert_eq!((scene.prototypes.len(), scene.instances.len()), (1, 3));
     let mut scene = scene;
     let accel = Accel::build(&mut scene, AccelKind::Bvh);
     let films: Vec<_> = PacketWidth::ALL

@@ -138,7 +138,7 @@ fn specialisation_skips_work_and_keeps_the_bits() {
         // Camera packets skip the test against the scene's box only when the camera is
         // inside it: `bunny`'s camera is inside its 100-unit ground sphere, `cornell`'s
         // looks into the room from outside.
-        if let Accel::Bvh(b) = &accel {
+        if let Some(b) = accel.bvh() {
             // The mesh is small in `bunny`'s scene, the room is all of `cornell`'s.
             match *name {
                 "bunny" | "bunny-closeup" => assert!(b.tree_box_first, "{name}"),
@@ -288,7 +288,7 @@ material = "m"
             .unwrap();
         let mut scene = scene_with_files(&text, &[("bunny.obj", obj)]);
         let accel = Accel::build(&mut scene, AccelKind::Bvh);
-        let Accel::Bvh(b) = &accel else { unreachable!() };
+        let Some(b) = accel.bvh() else { unreachable!() };
         assert_eq!(
             b.linear.clone().map(|r| r.len()),
             [1, 0, 0],
@@ -390,7 +390,7 @@ fn check_packet<L: Lane>(rays: &[Ray; MAX_WIDTH], active: u32) -> Result<(), Tes
     // Any-hit with arbitrary bounds: occluded before (t, id) per lane. In about half the
     // lanes the bound is the lane's own closest hit, so a primitive at exactly the
     // bound's distance is decided by the ids (`beats`).
-    let Accel::Bvh(bvh) = accel else {
+    let Some(bvh) = accel.bvh() else {
         unreachable!()
     };
     let mut rng = Rng(active as u64);
@@ -478,7 +478,7 @@ fn a_tiles_cone_keeps_every_primitive_its_camera_rays_hit() {
     }
     for (name, mut scene) in scenes {
         let accel = Accel::build(&mut scene, AccelKind::Bvh);
-        let Accel::Bvh(bvh) = &accel else {
+        let Some(bvh) = accel.bvh() else {
             unreachable!()
         };
         let tracer = raytracer::integrator::Tracer::new(&scene, &accel, 0);

@@ -297,7 +297,7 @@ fn quad_rays(scene: &Scene, groups: &[Vec<(Vec3, Vec3)>], objects: &[u32], leaks
     let bvh = Accel::build(&mut bvh_scene, AccelKind::Bvh);
     let mut lin_scene = scene.clone();
     let lin = Accel::build(&mut lin_scene, AccelKind::Linear);
-    let Accel::Bvh(tree) = &bvh else {
+    let Some(tree) = bvh.bvh() else {
         unreachable!()
     };
     let quads: Vec<Quad> = (0..scene.quads.len())

@@ -50,7 +50,8 @@ fuzz_target!(|data: &[u8]| {
     let big_mesh = desc
         .objects
         .iter()
-        .any(|o| matches!(o.get_ref(), ObjectDesc::Mesh { subdivide, .. } if *subdivide > 1));
+        .any(|o| matches!(o.get_ref(), ObjectDesc::Mesh { subdivide, .. } if *subdivide > 1))
+        || desc.meshes.values().any(|m| m.get_ref().subdivide > 1);
     if big_mesh || desc.objects.len() > 2000 {
         return;
     }

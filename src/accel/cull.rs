@@ -38,9 +38,9 @@ impl Cull {
     /// The primitive tests and the tree this leaves out, for `--stats`: (primitives
     /// beside the tree, tree) skipped.
     pub fn skipped(&self, accel: &Accel) -> (u64, bool) {
-        match accel {
-            Accel::Linear(_) => (0, false),
-            Accel::Bvh(b) => {
+        match accel.bvh() {
+            None => (0, false),
+            Some(b) => {
                 let prims = (0..3)
                     .map(|k| {
                         let n = b.linear[k].len().min(32) as u32;
@@ -188,9 +188,8 @@ impl CullTargets {
     /// `None` for the linear scan (it has no tree to skip, and is kept as the original
     /// program's algorithm).
     pub fn new(scene: &Scene, accel: &Accel) -> Option<CullTargets> {
-        let Accel::Bvh(b) = accel else {
-            return None;
-        };
+        // Nor for instances: the cones rule out only the pools' primitives.
+        let b = accel.bvh().filter(|_| scene.instances.is_empty())?;
         // A box is never empty here (a zero-area primitive's is still a point); an empty
         // one would get an infinite ball, never ruled out.
         let balls = |range: std::ops::Range<usize>, bounds: fn(&Scene, usize) -> Aabb| {

@@ -11,6 +11,7 @@
 pub mod build;
 pub mod bvh;
 pub mod cull;
+mod instances;
 pub mod linear;
 pub mod packet;
 pub mod shadow;
@@ -19,7 +20,8 @@ mod stack;
 use crate::geometry::{Hit, Ray};
 use crate::lanes::{set_lanes, Lane};
 use crate::scene::{Light, Scene};
-use bvh::Bvh;
+use bvh::{Bvh, ShadowLanes};
+pub use instances::InstanceTree;
 use linear::LinearScan;
 use packet::{PacketHits, RayPacket};
 use shadow::Candidates;
@@ -156,31 +158,178 @@ impl TraversalStats {
     }
 }
 
-/// A built acceleration structure over a compiled scene.
+/// A built acceleration structure over a compiled scene: a tree over its pools, and
+/// one over each mesh its instances place (`instances`: the level above them).
+#[derive(Clone, Debug)]
+pub struct Accel {
+    pub tree: Tree,
+    /// The tree of each of `Scene::prototypes`, over its scene, of the same kind.
+    pub prototypes: Vec<Tree>,
+    /// The tree over the instances' boxes.
+    pub instances: InstanceTree,
+}
+
+/// An acceleration structure over one scene's pools.
 // One a render, built once and borrowed by every tile: the BVH's inline fields (the
 // lone quad beside it among them) are read on every ray without a pointer to follow.
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
-pub enum Accel {
+pub enum Tree {
     Linear(LinearScan),
     Bvh(Bvh),
 }
 
 impl Accel {
-    /// Build for `scene`. The BVH reorders the scene's pools (ids and objects move with
-    /// their primitives, so images do not change).
+    /// Build for `scene` (and for each mesh its instances place). The BVH reorders the
+    /// pools (ids and objects move with their primitives, so images do not change).
     pub fn build(scene: &mut Scene, kind: AccelKind) -> Accel {
-        match kind {
-            AccelKind::Linear => Accel::Linear(LinearScan::build(scene)),
-            AccelKind::Bvh => Accel::Bvh(Bvh::build(scene)),
+        let prototypes = (scene.prototypes.iter_mut())
+            .map(|p| Tree::build(&mut p.scene, kind))
+            .collect();
+        Accel {
+            tree: Tree::build(scene, kind),
+            prototypes,
+            instances: InstanceTree::build(scene),
         }
     }
 
     /// One line for `--stats`: what was built.
     pub fn describe(&self, scene: &Scene) -> String {
+        let mut line = self.tree.describe(scene);
+        if !scene.instances.is_empty() {
+            let triangles: usize = (scene.prototypes.iter())
+                .map(|p| p.scene.triangles.len())
+                .sum();
+            line += &format!(
+                "; {} instances of {} meshes ({triangles} triangles stored once), each mesh with a tree of its own",
+                scene.instances.len(),
+                scene.prototypes.len(),
+            );
+        }
+        line
+    }
+
+    pub fn kind(&self) -> AccelKind {
+        self.tree.kind()
+    }
+
+    /// The BVH over the scene's pools, if that is what was built.
+    pub fn bvh(&self) -> Option<&Bvh> {
+        match &self.tree {
+            Tree::Bvh(b) => Some(b),
+            Tree::Linear(_) => None,
+        }
+    }
+
+    /// The closest hit in `[t_min, t_max]` by the `(t, primitive id)` rule.
+    #[inline]
+    pub fn closest_hit(
+        &self,
+        mut cx: Context<'_>,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<Hit> {
+        debug_assert_finite(ray);
+        let mut best = self.tree.closest_hit(cx.reborrow(), ray, t_min, t_max);
+        if !cx.scene.instances.is_empty() {
+            self.instances_closest(cx, ray, t_min, t_max, &mut best);
+        }
+        best
+    }
+
+    /// The original program's shadow test: is the nearest hit of the ray (from `t_min`,
+    /// unbounded) a primitive of `light`'s object? The linear scan answers with a
+    /// closest-hit query; the BVH finds the light's own nearest hit and then looks for any
+    /// occluder before it.
+    #[inline]
+    pub fn light_visible(&self, mut cx: Context<'_>, ray: &Ray, t_min: f32, light: &Light) -> bool {
+        debug_assert_finite(ray);
+        if cx.scene.instances.is_empty() {
+            return self.tree.light_visible(cx, ray, t_min, light);
+        }
+        if light.primitives() > bvh::LIGHT_PRIMITIVES_SCANNED {
+            // As the tree asks it: is the closest hit, over both levels, the light's?
+            return self
+                .closest_hit(cx, ray, t_min, f32::INFINITY)
+                .is_some_and(|h| h.object == light.object);
+        }
+        self.tree.light_visible(cx.reborrow(), ray, t_min, light)
+            && !self.instances_occlude(cx, ray, t_min, light)
+    }
+
+    /// Whether a packet's queries test boxes, so its rays need the box constants
+    /// (`RayPacket::from_active_lanes_with`): through a tree, or an instance's box.
+    pub fn packet_boxes(&self) -> bool {
+        self.tree.packet_boxes() || !self.prototypes.is_empty()
+    }
+
+    /// `closest_hit` (from `t_min`, unbounded) for every active lane of a packet.
+    #[inline]
+    pub fn closest_hit_packet<L: Lane>(
+        &self,
+        mut cx: Context<'_>,
+        p: &RayPacket<L>,
+        t_min: f32,
+    ) -> PacketHits<L> {
+        debug_assert_lanes_finite(p, p.active);
+        let mut hits = self.tree.closest_hit_packet(cx.reborrow(), p, t_min);
+        if !cx.scene.instances.is_empty() {
+            self.instances_closest_packet(cx, p, t_min, &mut hits);
+        }
+        hits
+    }
+
+    /// `light_visible` for the lanes of `lanes`: the mask of those that see the light.
+    /// `among`: the only primitives of the scene's pools that can occlude, when known
+    /// (`shadow::ShadowBoxes::candidates` of the lanes' origins, for the BVH whose scene
+    /// they were made for; the linear scan tests everything).
+    #[inline]
+    pub fn light_visible_packet<L: Lane>(
+        &self,
+        mut cx: Context<'_>,
+        p: &RayPacket<L>,
+        t_min: f32,
+        light: &Light,
+        lanes: u32,
+        among: Option<Candidates<'_>>,
+    ) -> u32 {
+        let lanes = lanes & p.active;
+        debug_assert_lanes_finite(p, lanes);
+        let instances = !cx.scene.instances.is_empty();
+        if instances && light.primitives() > bvh::LIGHT_PRIMITIVES_SCANNED {
+            cx.stats.single_lanes += lanes.count_ones() as u64;
+            let mut visible = 0;
+            for k in set_lanes(lanes) {
+                if self.light_visible(cx.reborrow(), &p.ray(k), t_min, light) {
+                    visible |= 1 << k;
+                }
+            }
+            return visible;
+        }
+        let visible =
+            (self.tree).light_visible_packet(cx.reborrow(), p, t_min, light, lanes, among);
+        if !instances || visible == 0 {
+            return visible;
+        }
+        visible & !self.instances_occlude_packet(cx, p, t_min, light, visible)
+    }
+}
+
+impl Tree {
+    /// Build for `scene` (`Accel::build`).
+    pub fn build(scene: &mut Scene, kind: AccelKind) -> Tree {
+        match kind {
+            AccelKind::Linear => Tree::Linear(LinearScan::build(scene)),
+            AccelKind::Bvh => Tree::Bvh(Bvh::build(scene)),
+        }
+    }
+
+    /// One line for `--stats`: what was built over the scene's pools.
+    pub fn describe(&self, scene: &Scene) -> String {
         match self {
-            Accel::Linear(_) => format!("linear scan over {} primitives", scene.primitive_count()),
-            Accel::Bvh(b) => {
+            Tree::Linear(_) => format!("linear scan over {} primitives", scene.primitive_count()),
+            Tree::Bvh(b) => {
                 let names = ["spheres", "quads", "triangles"];
                 let pools = [
                     scene.spheres.len(),
@@ -217,49 +366,54 @@ impl Accel {
 
     pub fn kind(&self) -> AccelKind {
         match self {
-            Accel::Linear(_) => AccelKind::Linear,
-            Accel::Bvh(_) => AccelKind::Bvh,
+            Tree::Linear(_) => AccelKind::Linear,
+            Tree::Bvh(_) => AccelKind::Bvh,
         }
     }
 
-    /// The closest hit in `[t_min, t_max]` by the `(t, primitive id)` rule.
+    /// `Accel::closest_hit` over this tree's scene alone.
     #[inline]
     pub fn closest_hit(&self, cx: Context<'_>, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        debug_assert_finite(ray);
         match self {
-            Accel::Linear(l) => l.closest_hit(cx, ray, t_min, t_max),
-            Accel::Bvh(b) => b.closest_hit(cx, ray, t_min, t_max),
+            Tree::Linear(l) => l.closest_hit(cx, ray, t_min, t_max),
+            Tree::Bvh(b) => b.closest_hit(cx, ray, t_min, t_max),
         }
     }
 
-    /// The original program's shadow test: is the nearest hit of the ray (from `t_min`,
-    /// unbounded) a primitive of `light`'s object? The linear scan answers with a
-    /// closest-hit query; the BVH finds the light's own nearest hit and then looks for any
-    /// occluder before it.
+    /// `Accel::light_visible` over this tree's scene alone.
     #[inline]
     pub fn light_visible(&self, cx: Context<'_>, ray: &Ray, t_min: f32, light: &Light) -> bool {
-        debug_assert_finite(ray);
         match self {
-            Accel::Linear(l) => l
+            Tree::Linear(l) => l
                 .closest_hit(cx, ray, t_min, f32::INFINITY)
                 .is_some_and(|h| h.object == light.object),
-            Accel::Bvh(b) => b.light_visible(cx, ray, t_min, light),
+            Tree::Bvh(b) => b.light_visible(cx, ray, t_min, light),
         }
     }
 
-    /// Whether a packet's queries test boxes, so its rays need the box constants
-    /// (`RayPacket::from_active_lanes_with`): through a tree. The linear scan tests a
-    /// packet's lanes one ray at a time, and a BVH without a tree (every primitive
-    /// beside it: `spheres`, `quads`, `mixed`) tests none; the shadow candidates' boxes
-    /// (`shadow::ShadowBoxes`) are the caller's to count.
+    /// Does a primitive of this tree's scene occlude by `query`'s rule? (The linear
+    /// scan's answer holds for a scene without the light's object: a prototype's.)
+    #[inline]
+    pub fn occluded(&self, cx: Context<'_>, ray: &Ray, query: ShadowQuery) -> bool {
+        match self {
+            // The closest hit in range is the smallest (t, id): if any hit beats the
+            // light's, it does.
+            Tree::Linear(l) => l
+                .closest_hit(cx, ray, query.t_min, query.t_light)
+                .is_some_and(|h| query.occludes(h.t, h.id, h.object)),
+            Tree::Bvh(b) => b.occluded(cx, ray, query),
+        }
+    }
+
+    /// `Accel::packet_boxes` for this tree.
     pub fn packet_boxes(&self) -> bool {
         match self {
-            Accel::Linear(_) => false,
-            Accel::Bvh(b) => b.root.is_some(),
+            Tree::Linear(_) => false,
+            Tree::Bvh(b) => b.root.is_some(),
         }
     }
 
-    /// `closest_hit` (from `t_min`, unbounded) for every active lane of a packet.
+    /// `Accel::closest_hit_packet` over this tree's scene alone.
     #[inline]
     pub fn closest_hit_packet<L: Lane>(
         &self,
@@ -267,9 +421,8 @@ impl Accel {
         p: &RayPacket<L>,
         t_min: f32,
     ) -> PacketHits<L> {
-        debug_assert_lanes_finite(p, p.active);
         match self {
-            Accel::Linear(l) => {
+            Tree::Linear(l) => {
                 let mut hits = PacketHits::none(p.active);
                 for k in set_lanes(p.active) {
                     let hit = l.closest_hit(cx.reborrow(), &p.ray(k), t_min, f32::INFINITY);
@@ -277,14 +430,11 @@ impl Accel {
                 }
                 hits
             }
-            Accel::Bvh(b) => b.closest_hit_packet(cx, p, t_min),
+            Tree::Bvh(b) => b.closest_hit_packet(cx, p, t_min),
         }
     }
 
-    /// `light_visible` for the lanes of `lanes`: the mask of those that see the light.
-    /// `among`: the only primitives that can occlude, when known
-    /// (`shadow::ShadowBoxes::candidates` of the lanes' origins, for the BVH whose scene
-    /// they were made for; the linear scan tests everything).
+    /// `Accel::light_visible_packet` over this tree's scene alone.
     #[inline]
     pub fn light_visible_packet<L: Lane>(
         &self,
@@ -295,10 +445,8 @@ impl Accel {
         lanes: u32,
         among: Option<Candidates<'_>>,
     ) -> u32 {
-        let lanes = lanes & p.active;
-        debug_assert_lanes_finite(p, lanes);
         match self {
-            Accel::Linear(_) => {
+            Tree::Linear(_) => {
                 let mut visible = 0;
                 for k in set_lanes(lanes) {
                     if self.light_visible(cx.reborrow(), &p.ray(k), t_min, light) {
@@ -307,7 +455,31 @@ impl Accel {
                 }
                 visible
             }
-            Accel::Bvh(b) => b.light_visible_packet(cx, p, t_min, light, lanes, among),
+            Tree::Bvh(b) => b.light_visible_packet(cx, p, t_min, light, lanes, among),
+        }
+    }
+
+    /// The lanes of `lanes` that a primitive of this tree's scene occludes, lane `k`
+    /// asking `light.lane(k)`.
+    #[inline]
+    pub fn occluded_packet<L: Lane>(
+        &self,
+        mut cx: Context<'_>,
+        p: &RayPacket<L>,
+        light: ShadowLanes<L>,
+        lanes: u32,
+    ) -> u32 {
+        match self {
+            Tree::Linear(_) => {
+                let mut occluded = 0;
+                for k in set_lanes(lanes) {
+                    if self.occluded(cx.reborrow(), &p.ray(k), light.lane(k)) {
+                        occluded |= 1 << k;
+                    }
+                }
+                occluded
+            }
+            Tree::Bvh(b) => b.occluded_packet(cx, p, light, lanes),
         }
     }
 }

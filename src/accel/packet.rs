@@ -118,6 +118,12 @@ impl<L: Lane> RayPacket<L> {
         Self::from_lanes_with(fill(origin), fill(dir), active, boxes)
     }
 
+    /// Whether the box test's constants are made (`from_active_lanes_with`).
+    #[inline(always)]
+    pub(crate) fn has_boxes(&self) -> bool {
+        self.boxes
+    }
+
     /// The rays' origins, lane by lane.
     #[inline]
     pub fn origin(&self) -> V3<L> {

@@ -503,6 +503,9 @@ pub fn scene_digest(scene: &Scene) -> String {
         bounds: _,               // derived from the primitives
         degenerate_triangles: _, // left out of the pools
         warnings: _,             // messages, not pixels
+        prototypes,
+        instances,
+        object_instance: _, // derived from the instances
     } = scene;
     let mut h = Hasher::default();
     // Small values as their Debug text (exact: floats print as the shortest text that
@@ -624,6 +627,19 @@ pub fn scene_digest(scene: &Scene) -> String {
                 h.vec3s("triangles", ts.len() * 3, ts.iter().flatten().copied())
             }
         }
+    }
+    // Only where there are instances: the digests of other scenes stay as they were.
+    for p in prototypes {
+        h.text("prototype", &p.name);
+        h.text("its scene", &scene_digest(&p.scene));
+        h.u32s(
+            "its materials",
+            p.group_materials.len(),
+            p.group_materials.iter().copied(),
+        );
+    }
+    for i in instances {
+        h.text("instance", &format!("{i:?}"));
     }
     hex(&h.sha.finalize())
 }

@@ -239,8 +239,8 @@ impl<'a> Tracer<'a> {
     }
 
     pub fn with_sampler(scene: &'a Scene, accel: &'a Accel, sampler: Sampler) -> Self {
-        let shadow_boxes = match accel {
-            Accel::Bvh(_) if scene.lights.iter().any(|l| !l.is_point()) => ShadowBoxes::new(scene),
+        let shadow_boxes = match accel.bvh() {
+            Some(_) if scene.lights.iter().any(|l| !l.is_point()) => ShadowBoxes::new(scene),
             _ => None,
         };
         Self {
@@ -306,15 +306,18 @@ impl<'a> Tracer<'a> {
         let (point, outward) = self.point_and_outward(hit, on_ray);
         let (normal, front_face) = face_forward::<f32>(V3::splat(ray.dir), V3::splat(outward));
         let i = hit.index as usize;
-        let shading = match hit.kind {
-            PrimKind::Triangle if self.scene.triangles.is_smooth(i) => {
-                let pool = &self.scene.triangles;
-                let n = |k: usize| V3::splat(pool.normals[i][k]);
-                let [a, b, c] = pool.vertices(i).map(V3::splat);
-                let s = smooth_normal::<f32>(a, b, c, [n(0), n(1), n(2)], V3::splat(on_ray));
+        let smooth = match hit.kind {
+            PrimKind::Triangle => self.scene.triangle_normals(hit.object, i),
+            _ => None,
+        };
+        let shading = match smooth {
+            Some(corners) => {
+                let n = corners.map(V3::splat);
+                let [a, b, c] = (self.scene).triangle_vertices(hit.object, i).map(V3::splat);
+                let s = smooth_normal::<f32>(a, b, c, n, V3::splat(on_ray));
                 on_side(s, normal)
             }
-            _ => normal,
+            None => normal,
         };
         Surface {
             point,
@@ -352,7 +355,7 @@ impl<'a> Tracer<'a> {
                 (p, q.normal)
             }
             PrimKind::Triangle => {
-                let [a, b, c] = scene.triangles.vertices(i);
+                let [a, b, c] = scene.triangle_vertices(hit.object, i);
                 let v = V3::<f32>::splat;
                 let (p, e, n) = triangle_point(v(a), v(b), v(c), v(on_ray));
                 let p = ErrorPoint {
@@ -411,29 +414,8 @@ impl<'a> Tracer<'a> {
         if triangles != 0 {
             // Lanes of other kinds take the first triangle lane's triangle (replaced).
             let i = own_or_first(&hits.indices(), triangles);
-            let pool = &scene.triangles;
-            let vertex = |p: &[Vec<f32>; 3]| {
-                V3::new(
-                    L::from_fn(|k| p[0][i[k]]),
-                    L::from_fn(|k| p[1][i[k]]),
-                    L::from_fn(|k| p[2][i[k]]),
-                )
-            };
-            let (p, e, n) =
-                triangle_point(vertex(&pool.a), vertex(&pool.b), vertex(&pool.c), on_ray);
-            let m = L::Mask::from_bits(triangles);
-            point = V3::select(m, p, point);
-            error = V3::select(m, e, error);
-            outward = V3::select(m, n, outward);
-        }
-        let (normal, front) = face_forward(dir, outward);
-        let mut s = SurfaceLanes::flat(point, error, normal, front.bits());
-        if triangles != 0 && !scene.triangles.normals.is_empty() {
-            let pool = &scene.triangles;
-            let i = own_or_first(&hits.indices(), triangles);
-            let smooth =
-                triangles & (0..L::WIDTH).fold(0, |m, k| m | (pool.is_smooth(i[k]) as u32) << k);
-            if smooth != 0 {
+            let [a, b, c] = if scene.instances.is_empty() {
+                let pool = &scene.triangles;
                 let vertex = |p: &[Vec<f32>; 3]| {
                     V3::new(
                         L::from_fn(|k| p[0][i[k]]),
@@ -441,14 +423,32 @@ impl<'a> Tracer<'a> {
                         L::from_fn(|k| p[2][i[k]]),
                     )
                 };
-                let corner = |c: usize| V3::from_fn(|k| pool.normals[i[k]][c]);
-                let n = smooth_normal(
-                    vertex(&pool.a),
-                    vertex(&pool.b),
-                    vertex(&pool.c),
-                    [corner(0), corner(1), corner(2)],
-                    on_ray,
-                );
+                [vertex(&pool.a), vertex(&pool.b), vertex(&pool.c)]
+            } else {
+                world_triangles(scene, &own_or_first(&hits.objects(), triangles), &i)
+            };
+            let (p, e, n) = triangle_point(a, b, c, on_ray);
+            let m = L::Mask::from_bits(triangles);
+            point = V3::select(m, p, point);
+            error = V3::select(m, e, error);
+            outward = V3::select(m, n, outward);
+        }
+        let (normal, front) = face_forward(dir, outward);
+        let mut s = SurfaceLanes::flat(point, error, normal, front.bits());
+        if triangles != 0 && scene.has_smooth_triangles() {
+            let i = own_or_first(&hits.indices(), triangles);
+            let objects = own_or_first(&hits.objects(), triangles);
+            let normals: [Option<[Vec3; 3]>; MAX_WIDTH] = std::array::from_fn(|k| {
+                (k < L::WIDTH)
+                    .then(|| scene.triangle_normals(objects[k], i[k]))
+                    .flatten()
+            });
+            let smooth =
+                triangles & (0..L::WIDTH).fold(0, |m, k| m | (normals[k].is_some() as u32) << k);
+            if smooth != 0 {
+                let [a, b, c] = world_triangles(scene, &objects, &i);
+                let corner = |c: usize| V3::from_fn(|k| normals[k].map_or(Vec3::ZERO, |n| n[c]));
+                let n = smooth_normal(a, b, c, [corner(0), corner(1), corner(2)], on_ray);
                 s.shading = V3::select(L::Mask::from_bits(smooth), on_side(n, normal), normal);
                 s.smooth = smooth;
             }
@@ -525,6 +525,27 @@ fn pow_is_zero<L: Lane>(shininess: L, r_dot_v: L) -> u32 {
     (shininess * (L::splat(1.0) - r_dot_v))
         .ge(L::splat(112.0))
         .bits()
+}
+
+/// The world vertices of each lane's triangle (`objects[k]`'s triangle `index[k]`:
+/// `Scene::triangle_vertices`), as lanes a, b, c.
+#[inline(always)]
+fn world_triangles<L: Lane>(
+    scene: &Scene,
+    objects: &[u32; MAX_WIDTH],
+    index: &[usize; MAX_WIDTH],
+) -> [V3<L>; 3] {
+    // Lanes on the triangle of the lane before (a packet's neighbours) reuse its
+    // vertices: each is moved in f64 once.
+    let mut v = [[Vec3::ZERO; 3]; MAX_WIDTH];
+    for k in 0..L::WIDTH {
+        v[k] = if k > 0 && objects[k] == objects[k - 1] && index[k] == index[k - 1] {
+            v[k - 1]
+        } else {
+            scene.triangle_vertices(objects[k], index[k])
+        };
+    }
+    [0, 1, 2].map(|c| V3::from_fn(|k| v[k][c]))
 }
 
 /// The unit normals facing the rays along `dir` and the lanes that arrived on the side

@@ -4,6 +4,7 @@
 use super::desc::MeshMaterialsDesc;
 use super::desc::{AspectDesc, MaterialDesc, NormalsDesc, ObjectDesc, SceneDesc};
 use super::input::ReadError;
+use super::instance::{self, Instance, Prototype, ToObject};
 use super::limits::{SampleBound, MAX_CAMERA_COORDINATE, MAX_COORDINATE};
 use super::mesh::MeshTriangles;
 use super::mtl;
@@ -164,6 +165,83 @@ pub fn compile_within(
         material_at.push((format!("material '{name}'"), at));
     }
 
+    // Meshes stored once, for instances: each in a scene of its own, in its own space.
+    let mut warnings = Vec::new();
+    let mut degenerate_triangles = 0;
+    let mut prototypes: Vec<Prototype> = Vec::new();
+    let mut prototype_index = HashMap::new();
+    for (name, m) in &desc.meshes {
+        let (at, span) = (m.span().start, m.span());
+        let m = m.get_ref();
+        let what = format!("mesh '{name}'");
+        let &material = material_index.get(m.material.as_str()).ok_or_else(|| {
+            err(
+                at,
+                format!(
+                    "{what}: unknown material '{}' (materials: {})",
+                    m.material,
+                    sorted_names(&material_index)
+                ),
+            )
+        })?;
+        let keys = MeshKeys {
+            path: &m.path,
+            subdivide: m.subdivide,
+            normals: m.normals,
+            materials: m.materials,
+        };
+        let place = Place {
+            what: &what,
+            span,
+            estimate: &estimate,
+            budget,
+            light: false,
+        };
+        let (mesh, library, degenerate) =
+            load_mesh(source, &keys, &Transform::IDENTITY, &place, &mut warnings)?;
+        degenerate_triangles += degenerate;
+        let mut group_materials = vec![material];
+        for l in library.iter().flatten() {
+            group_materials.push(materials.len() as u32);
+            materials.push(mtl::to_material(l));
+            material_at.push((format!("material '{}' of {}", l.name, l.library), at));
+        }
+        // The triangles of each group in turn, as a mesh object orders them.
+        let mut pool = TrianglePool::default();
+        let mut by_group = vec![Vec::new(); group_materials.len()];
+        for i in 0..mesh.triangles.len() {
+            by_group[mesh.material.get(i).map_or(0, |&g| g as usize)].push(i);
+        }
+        let group_used = by_group.iter().map(|g| !g.is_empty()).collect();
+        let mut mesh_bounds = Aabb::EMPTY;
+        let mut id = 0;
+        for (group, in_group) in by_group.into_iter().enumerate() {
+            for i in in_group {
+                let tri = mesh.triangles[i];
+                match mesh.normals.get(i) {
+                    Some(&n) => pool.push_smooth(tri, n, id, group as u32),
+                    None => pool.push(tri, id, group as u32),
+                }
+                mesh_bounds = mesh_bounds.union(Aabb::from_points(&tri));
+                id += 1;
+            }
+        }
+        estimate.add_primitives(0, 0, pool.len() as u64, true);
+        if m.normals == NormalsDesc::Smooth {
+            estimate.add_triangle_normals(pool.len() as u64);
+        }
+        prototype_index.insert(name.as_str(), prototypes.len() as u32);
+        prototypes.push(Prototype {
+            name: name.clone(),
+            scene: Scene::of_triangles(name, camera, pool, mesh_bounds),
+            group_materials,
+            group_used,
+        });
+    }
+    let mut placed = vec![false; prototypes.len()];
+    let mut instances: Vec<Instance> = Vec::new();
+    let mut object_instance: Vec<u32> = Vec::new();
+
     // Objects.
     let mut spheres = SpherePool::default();
     let mut quads = QuadPool::default();
@@ -172,8 +250,6 @@ pub fn compile_within(
     let mut lights = Vec::new();
     let mut bounds = Aabb::EMPTY;
     let mut next_id = 0u32;
-    let mut degenerate_triangles = 0;
-    let mut warnings = Vec::new();
     for (index, o) in desc.objects.iter().enumerate() {
         let (at, span) = (o.span().start, o.span());
         let o = o.get_ref();
@@ -182,15 +258,80 @@ pub fn compile_within(
         let object = object_material.len() as u32;
         let what = format!("object {} ({})", index + 1, o.kind_name());
         let oerr = |msg: String| err(at, format!("{what}: {msg}"));
-        let &m = material_index.get(o.material()).ok_or_else(|| {
-            let mut names: Vec<_> = material_index.keys().copied().collect();
-            names.sort_unstable();
-            oerr(format!(
-                "unknown material '{}' (materials: {})",
-                o.material(),
-                names.join(", ")
-            ))
-        })?;
+        let material = |name: &str| {
+            material_index.get(name).copied().ok_or_else(|| {
+                oerr(format!(
+                    "unknown material '{name}' (materials: {})",
+                    sorted_names(&material_index)
+                ))
+            })
+        };
+        if let ObjectDesc::Instance {
+            mesh,
+            material: replaced,
+            scale,
+            rotate,
+            translate,
+            matrix,
+        } = o
+        {
+            let &p = prototype_index.get(mesh.as_str()).ok_or_else(|| {
+                oerr(format!(
+                    "unknown mesh '{mesh}' (meshes: {})",
+                    sorted_names(&prototype_index)
+                ))
+            })?;
+            let replaced = replaced.as_deref().map(material).transpose()?;
+            let transform = Transform::from_keys(*scale, rotate, *translate, matrix.as_deref())
+                .map_err(|(key, msg)| {
+                    err(source.key_at(span.clone(), key), format!("{what}: {msg}"))
+                })?;
+            let proto = &prototypes[p as usize];
+            placed[p as usize] = true;
+            for (&group_material, &used) in proto.group_materials.iter().zip(&proto.group_used) {
+                let m = replaced.unwrap_or(group_material);
+                if used && matches!(materials[m as usize], Material::Light { .. }) {
+                    return Err(oerr(format!(
+                        "an instance cannot be a light (mesh '{mesh}' in a light material): \
+                         place the mesh with a mesh object to make it one"
+                    )));
+                }
+                object_material.push(m);
+            }
+            let (min, max) = instance::world_bounds(&proto.scene.bounds, &transform);
+            let reach = min.abs().max(max.abs()).max_element();
+            if reach.is_nan() || reach > MAX_COORDINATE {
+                return Err(oerr(format!(
+                    "the transform moves mesh '{mesh}' to the box [{:e}, {:e}, {:e}] to \
+                     [{:e}, {:e}, {:e}]: the scene must lie within ±{MAX_COORDINATE:e} on \
+                     every axis (f32 intersection tests overflow beyond)",
+                    min.x, min.y, min.z, max.x, max.y, max.z
+                )));
+            }
+            let count = proto.scene.triangles.len() as u32;
+            let first_id = next_id;
+            next_id = next_id
+                .checked_add(count)
+                .filter(|&n| n < u32::MAX)
+                .ok_or_else(|| oerr("too many primitives".into()))?;
+            let instance_bounds = instance::outward(min, max);
+            bounds = bounds.union(instance_bounds);
+            object_instance.resize(object as usize, u32::MAX);
+            object_instance.resize(object_material.len(), instances.len() as u32);
+            instances.push(Instance {
+                prototype: p,
+                first_object: object,
+                first_id,
+                to_object: (!transform.is_identity()).then(|| ToObject::new(&transform)),
+                to_world: transform,
+                bounds: instance_bounds,
+            });
+            continue;
+        }
+        let Some(name) = o.material() else {
+            unreachable!("only an instance may leave its material out")
+        };
+        let m = material(name)?;
         object_material.push(m);
         let light_radiance = match materials[m as usize] {
             Material::Light { color, intensity } => Some(color * intensity),
@@ -286,70 +427,22 @@ pub fn compile_within(
                     .map_err(|(key, msg)| {
                         err(source.key_at(span.clone(), key), format!("{what}: {msg}"))
                     })?;
-                let (display, text) =
-                    read_mesh(source, path, &estimate, budget).map_err(|e| match e {
-                        Error::Io { path: p, source: s } => {
-                            oerr(format!("cannot read mesh {p}: {s}"))
-                        }
-                        other => other,
-                    })?;
-                // The libraries' materials, when the mesh takes its own.
-                let library = match mesh_materials {
-                    MeshMaterialsDesc::Object => None,
-                    MeshMaterialsDesc::Mtl => Some(
-                        read_libraries(source, &display, &text, &mut warnings).map_err(
-                            |e| match e {
-                                Error::Options(message) => err(
-                                    source.key_at(span.clone(), "materials"),
-                                    format!("{what}: {message}"),
-                                ),
-                                other => other,
-                            },
-                        )?,
-                    ),
+                let keys = MeshKeys {
+                    path,
+                    subdivide: *subdivide,
+                    normals: *normals,
+                    materials: *mesh_materials,
                 };
-                let names: Option<Vec<String>> = library
-                    .as_ref()
-                    .map(|l| l.iter().map(|m| m.name.clone()).collect());
-                let options = mesh::ObjOptions {
-                    smooth: *normals == NormalsDesc::Smooth,
-                    materials: names.as_deref(),
+                let place = Place {
+                    what: &what,
+                    span: span.clone(),
+                    estimate: &estimate,
+                    budget,
+                    light: light_radiance.is_some(),
                 };
-                let mut mesh = mesh::read_obj(&display, &text, options)?;
-                drop(text);
-                degenerate_triangles += mesh.degenerate;
-                if !transform.is_identity() {
-                    degenerate_triangles += place_mesh(&mut mesh, &transform)
-                        .map_err(|msg| oerr(format!("{display}: {msg}")))?;
-                }
-                // What the subdivided mesh will cost, before it is made.
-                let count = (mesh.triangles.len() as u64).saturating_mul(1 << (2 * subdivide));
-                let mut after = estimate;
-                after.add_primitives(0, 0, count, true);
-                if light_radiance.is_some() {
-                    after.add_light_triangles(count);
-                }
-                if *normals == NormalsDesc::Smooth {
-                    after.add_triangle_normals(count);
-                }
-                let subdivided = if *subdivide > 0 {
-                    format!(", subdivided {subdivide} times")
-                } else {
-                    String::new()
-                };
-                budget.check(&after, &format!("{display}: {count} triangles{subdivided}"))?;
-                if *subdivide > 0 {
-                    mesh.subdivide(*subdivide);
-                    // Midpoints round to f32: far from the origin a small child may
-                    // collapse onto a line, and is dropped like a degenerate face.
-                    degenerate_triangles += mesh.retain(|&t| is_proper_triangle(t));
-                    if mesh.triangles.is_empty() {
-                        return Err(oerr(format!(
-                            "{display}: no usable triangles after subdividing (each rounds \
-                             to zero area in f32)"
-                        )));
-                    }
-                }
+                let (mesh, library, degenerate) =
+                    load_mesh(source, &keys, &transform, &place, &mut warnings)?;
+                degenerate_triangles += degenerate;
                 // The triangles of each material in turn, each material's an object
                 // of its own (the faces before any `usemtl` are this object's), so a
                 // light's primitives keep consecutive ids.
@@ -407,6 +500,7 @@ pub fn compile_within(
                 }
                 LightShape::Triangles(own)
             }
+            ObjectDesc::Instance { .. } => unreachable!("an instance is placed above"),
         };
         // Running totals (a mesh's were added above, before it was made).
         match o {
@@ -414,6 +508,7 @@ pub fn compile_within(
             ObjectDesc::Quad { .. } => estimate.add_primitives(0, 1, 0, true),
             ObjectDesc::Triangle { .. } => estimate.add_primitives(0, 0, 1, true),
             ObjectDesc::Box { .. } => estimate.add_primitives(0, 6, 0, true),
+            ObjectDesc::Instance { .. } => unreachable!("an instance is placed above"),
             ObjectDesc::Mesh { normals, .. } => {
                 let n = (next_id - first_id) as u64;
                 estimate.add_primitives(0, 0, n, true);
@@ -439,6 +534,12 @@ pub fn compile_within(
     }
     if next_id == u32::MAX {
         return Err(err(0, "too many primitives".into()));
+    }
+    for (name, _) in desc.meshes.keys().zip(&placed).filter(|(_, &p)| !p) {
+        warnings.push(format!("mesh '{name}' is placed by no instance"));
+    }
+    if !instances.is_empty() {
+        object_instance.resize(object_material.len(), u32::MAX);
     }
 
     // The largest value a sample can take, against f32's range.
@@ -492,7 +593,7 @@ pub fn compile_within(
     let features = Features {
         has_spheres: !spheres.is_empty(),
         has_quads: !quads.is_empty(),
-        has_triangles: !triangles.is_empty(),
+        has_triangles: !triangles.is_empty() || !instances.is_empty(),
         has_point_lights: lights.iter().any(Light::is_point),
         has_area_lights: lights.iter().any(|l| !l.is_point()),
         has_mirror: materials
@@ -522,7 +623,17 @@ pub fn compile_within(
         bounds,
         degenerate_triangles,
         warnings,
+        prototypes,
+        instances,
+        object_instance,
     })
+}
+
+/// The keys of `index`, sorted, for messages: `a, b, c`.
+fn sorted_names(index: &HashMap<&str, u32>) -> String {
+    let mut names: Vec<_> = index.keys().copied().collect();
+    names.sort_unstable();
+    names.join(", ")
 }
 
 /// Which `[camera]` key a camera error is about, so that the message points at it.
@@ -698,6 +809,108 @@ fn read_mesh(
             Ok((display, Cow::Owned(text)))
         }
     }
+}
+
+/// A mesh's keys: what is loaded, as a mesh object or a `[meshes.NAME]` table gives it.
+struct MeshKeys<'a> {
+    path: &'a str,
+    subdivide: u32,
+    normals: NormalsDesc,
+    materials: MeshMaterialsDesc,
+}
+
+/// Where a mesh is loaded: its table in the scene (for messages, `what` and `span`), the
+/// scene's memory so far and its budget, and whether its triangles are a light.
+struct Place<'a> {
+    what: &'a str,
+    span: std::ops::Range<usize>,
+    estimate: &'a MemoryEstimate,
+    budget: Budget,
+    light: bool,
+}
+
+/// Load a mesh: the OBJ read and checked, its MTL libraries with `materials = "mtl"`,
+/// placed by `transform`, subdivided, within the budget. The triangles, the libraries'
+/// materials (for the faces' groups) and how many triangles were dropped as degenerate.
+fn load_mesh(
+    source: &SceneSource,
+    keys: &MeshKeys<'_>,
+    transform: &Transform,
+    place: &Place<'_>,
+    warnings: &mut Vec<String>,
+) -> Result<(MeshTriangles, Option<Vec<mtl::MtlMaterial>>, usize)> {
+    let err = |offset: usize, msg: String| source.error_at(offset, msg);
+    let (what, span) = (place.what, place.span.clone());
+    let oerr = |msg: String| err(span.start, format!("{what}: {msg}"));
+    let subdivide = keys.subdivide;
+    if subdivide > MAX_SUBDIVIDE {
+        return Err(oerr(format!(
+            "subdivide must be 0 to {MAX_SUBDIVIDE}, got {subdivide}"
+        )));
+    }
+    let (display, text) =
+        read_mesh(source, keys.path, place.estimate, place.budget).map_err(|e| match e {
+            Error::Io { path: p, source: s } => oerr(format!("cannot read mesh {p}: {s}")),
+            other => other,
+        })?;
+    // The libraries' materials, when the mesh takes its own.
+    let library = match keys.materials {
+        MeshMaterialsDesc::Object => None,
+        MeshMaterialsDesc::Mtl => Some(read_libraries(source, &display, &text, warnings).map_err(
+            |e| match e {
+                Error::Options(message) => err(
+                    source.key_at(span.clone(), "materials"),
+                    format!("{what}: {message}"),
+                ),
+                other => other,
+            },
+        )?),
+    };
+    let names: Option<Vec<String>> = library
+        .as_ref()
+        .map(|l| l.iter().map(|m| m.name.clone()).collect());
+    let options = mesh::ObjOptions {
+        smooth: keys.normals == NormalsDesc::Smooth,
+        materials: names.as_deref(),
+    };
+    let mut mesh = mesh::read_obj(&display, &text, options)?;
+    drop(text);
+    let mut degenerate = mesh.degenerate;
+    if !transform.is_identity() {
+        degenerate +=
+            place_mesh(&mut mesh, transform).map_err(|msg| oerr(format!("{display}: {msg}")))?;
+    }
+    // What the subdivided mesh will cost, before it is made.
+    let count = (mesh.triangles.len() as u64).saturating_mul(1 << (2 * subdivide));
+    let mut after = *place.estimate;
+    after.add_primitives(0, 0, count, true);
+    if place.light {
+        after.add_light_triangles(count);
+    }
+    if keys.normals == NormalsDesc::Smooth {
+        after.add_triangle_normals(count);
+    }
+    let subdivided = if subdivide > 0 {
+        format!(", subdivided {subdivide} times")
+    } else {
+        String::new()
+    };
+    place
+        .budget
+        .check(&after, &format!("{display}: {count} triangles{subdivided}"))?;
+    if subdivide > 0 {
+        mesh.subdivide(subdivide);
+        // Midpoints round to f32: far from the origin a small child may collapse onto a
+        // line, and is dropped like a degenerate face.
+        degenerate += mesh.retain(|&t| is_proper_triangle(t));
+        if mesh.triangles.is_empty() {
+            return Err(oerr(format!(
+                "{display}: no usable triangles after subdividing (each rounds to zero \
+                 area in f32)"
+            )));
+        }
+    }
+    Ok((mesh, library, degenerate))
 }
 
 /// The materials of the libraries an OBJ file names (`mtllib`), for `materials = "mtl"`:

@@ -67,8 +67,27 @@ pub struct SceneDesc {
     pub camera: Option<Spanned<CameraDesc>>,
     #[serde(default)]
     pub materials: BTreeMap<String, Spanned<MaterialDesc>>,
+    /// Meshes stored once and placed by `type = "instance"` objects, by name.
+    #[serde(default)]
+    pub meshes: BTreeMap<String, Spanned<MeshDesc>>,
     #[serde(default)]
     pub objects: Vec<Spanned<ObjectDesc>>,
+}
+
+/// A `[meshes.NAME]` table: an OBJ mesh loaded once, in its own space, for instances.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshDesc {
+    /// The OBJ file, relative to the scene file.
+    pub path: String,
+    #[serde(default)]
+    pub subdivide: u32,
+    /// The faces' material (before any `usemtl` with `materials = "mtl"`).
+    pub material: String,
+    #[serde(default)]
+    pub normals: NormalsDesc,
+    #[serde(default)]
+    pub materials: MeshMaterialsDesc,
 }
 
 impl SceneDesc {
@@ -79,6 +98,7 @@ impl SceneDesc {
             && self.ambient.is_none()
             && self.camera.is_none()
             && self.materials.is_empty()
+            && self.meshes.is_empty()
             && self.objects.is_empty()
     }
 }
@@ -267,6 +287,22 @@ pub enum ObjectDesc {
         #[serde(default)]
         materials: MeshMaterialsDesc,
     },
+    /// A mesh of `[meshes]` placed by a transform (the keys of a mesh object), stored
+    /// once however many instances place it.
+    Instance {
+        mesh: String,
+        /// Every face in this material instead of the mesh's.
+        #[serde(default)]
+        material: Option<String>,
+        #[serde(default)]
+        scale: Option<ScaleDesc>,
+        #[serde(default)]
+        rotate: Vec<RotationDesc>,
+        #[serde(default)]
+        translate: Option<V3>,
+        #[serde(default)]
+        matrix: Option<Vec<Vec<f64>>>,
+    },
 }
 
 /// A mesh's `materials`.
@@ -342,13 +378,15 @@ pub struct RotationDesc {
 }
 
 impl ObjectDesc {
-    pub fn material(&self) -> &str {
+    /// The object's material; an instance's override, if it has one.
+    pub fn material(&self) -> Option<&str> {
         match self {
             ObjectDesc::Sphere { material, .. }
             | ObjectDesc::Quad { material, .. }
             | ObjectDesc::Triangle { material, .. }
             | ObjectDesc::Box { material, .. }
-            | ObjectDesc::Mesh { material, .. } => material,
+            | ObjectDesc::Mesh { material, .. } => Some(material),
+            ObjectDesc::Instance { material, .. } => material.as_deref(),
         }
     }
 
@@ -359,6 +397,7 @@ impl ObjectDesc {
             ObjectDesc::Triangle { .. } => "triangle",
             ObjectDesc::Box { .. } => "box",
             ObjectDesc::Mesh { .. } => "mesh",
+            ObjectDesc::Instance { .. } => "instance",
         }
     }
 }

@@ -9,6 +9,7 @@ pub mod builtin;
 mod compile;
 pub mod desc;
 pub mod input;
+pub mod instance;
 mod light;
 pub mod limits;
 pub mod mesh;
@@ -24,6 +25,7 @@ use crate::material::Material;
 pub(crate) use compile::checked_camera;
 pub use compile::{compile, compile_within, MIN_FOCUS, MIN_FOCUS_RELATIVE};
 use glam::Vec3;
+pub use instance::{Instance, Prototype};
 pub use light::{Light, LightShape};
 pub use source::SceneSource;
 
@@ -88,6 +90,13 @@ pub struct Scene {
     pub bounds: Aabb,
     /// Zero-area mesh triangles left out.
     pub degenerate_triangles: usize,
+    /// The meshes stored once (`[meshes.NAME]`) that `instances` place.
+    pub prototypes: Vec<Prototype>,
+    /// The placed meshes, in file order.
+    pub instances: Vec<Instance>,
+    /// Each object's instance (index into `instances`), `u32::MAX` for an object of
+    /// the pools; empty when there are no instances.
+    pub object_instance: Vec<u32>,
     /// What the scene's files say that the renderer does not use (an MTL statement it
     /// has no mapping for), one message each, for the user.
     pub warnings: Vec<String>,
@@ -108,8 +117,85 @@ impl Scene {
         compile_within(&source, &desc, overrides, budget)
     }
 
+    /// A scene of `triangles` alone (a prototype's, in its own space): no lights, no
+    /// materials, `camera` only to fill the field.
+    pub fn of_triangles(
+        name: &str,
+        camera: Camera,
+        triangles: TrianglePool,
+        bounds: Aabb,
+    ) -> Scene {
+        Scene {
+            name: name.to_string(),
+            description: String::new(),
+            camera,
+            spp: 1,
+            max_depth: 1,
+            background: Vec3::ZERO,
+            ambient: Vec3::ZERO,
+            spheres: SpherePool::default(),
+            quads: QuadPool::default(),
+            triangles,
+            materials: Vec::new(),
+            object_material: Vec::new(),
+            lights: Vec::new(),
+            features: Features {
+                has_triangles: true,
+                ..Features::default()
+            },
+            bounds,
+            degenerate_triangles: 0,
+            warnings: Vec::new(),
+            prototypes: Vec::new(),
+            instances: Vec::new(),
+            object_instance: Vec::new(),
+        }
+    }
+
     pub fn primitive_count(&self) -> usize {
         self.spheres.len() + self.quads.len() + self.triangles.len()
+    }
+
+    /// The instance `object` belongs to, if any.
+    #[inline]
+    pub fn instance_of(&self, object: u32) -> Option<&Instance> {
+        let i = *self.object_instance.get(object as usize)?;
+        self.instances.get(i as usize)
+    }
+
+    /// The world vertices of triangle `index` of `object` (of the pool, or of an
+    /// instance's prototype, placed).
+    #[inline]
+    pub fn triangle_vertices(&self, object: u32, index: usize) -> [Vec3; 3] {
+        match self.instance_of(object) {
+            None => self.triangles.vertices(index),
+            Some(inst) => {
+                let pool = &self.prototypes[inst.prototype as usize].scene.triangles;
+                inst.world_triangle(pool.vertices(index))
+            }
+        }
+    }
+
+    /// The world corner normals of triangle `index` of `object` if it is smooth.
+    #[inline]
+    pub fn triangle_normals(&self, object: u32, index: usize) -> Option<[Vec3; 3]> {
+        match self.instance_of(object) {
+            None => self
+                .triangles
+                .is_smooth(index)
+                .then(|| self.triangles.normals[index]),
+            Some(inst) => {
+                let pool = &self.prototypes[inst.prototype as usize].scene.triangles;
+                pool.is_smooth(index)
+                    .then(|| inst.world_normals(pool.normals[index]))
+            }
+        }
+    }
+
+    /// Whether any triangle may be smooth (the pool's or a prototype's).
+    pub fn has_smooth_triangles(&self) -> bool {
+        !self.triangles.normals.is_empty()
+            || (self.prototypes.iter()).any(|p| !p.scene.triangles.normals.is_empty())
     }
 
     /// The memory of this scene rendered and written, with or without the BVH (`--accel
@@ -124,6 +210,11 @@ impl Scene {
             bvh,
         );
         e.add_triangle_normals(self.triangles.normals.len() as u64);
+        for p in &self.prototypes {
+            let pool = &p.scene.triangles;
+            e.add_primitives(0, 0, pool.len() as u64, bvh);
+            e.add_triangle_normals(pool.normals.len() as u64);
+        }
         for light in &self.lights {
             if let LightShape::Triangles(t) = &light.shape {
                 e.add_light_triangles(t.len() as u64);

@@ -115,6 +115,11 @@ impl Transform {
         })
     }
 
+    /// The map of points.
+    pub fn affine(&self) -> DAffine3 {
+        self.affine
+    }
+
     pub fn is_identity(&self) -> bool {
         *self == Self::IDENTITY
     }

@@ -18,6 +18,7 @@ pub use node::{decode_leaf, encode_leaf, slab, BoxRay, Node, Node4, Node8, EMPTY
 pub(crate) use node::{plane_rows, FAR_SCALE, NEAR_SCALE};
 pub use node8::BoxRay8;
 pub use packet_closest::PacketHits;
+pub(crate) use packet_shadow::light_hits;
 pub use packet_shadow::ShadowLanes;
 use rayon::prelude::*;
 pub(crate) use single::{Closest, RayQuery};

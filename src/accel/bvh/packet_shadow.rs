@@ -40,6 +40,19 @@ impl<L: Lane> ShadowLanes<L> {
         }
     }
 
+    /// Lane `k` asks `(t_light.lane(k), id_light.lane(k))` (the id in an f32's bits), of
+    /// the same `t_min` and `object`.
+    #[inline(always)]
+    pub fn from_lanes(t_min: f32, object: u32, t_light: L, id_light: L) -> Self {
+        ShadowLanes {
+            t_min,
+            t_light,
+            id_light,
+            object,
+            kind: None,
+        }
+    }
+
     /// Lane `k`'s question.
     #[inline(always)]
     pub fn lane(&self, k: usize) -> ShadowQuery {
@@ -153,6 +166,28 @@ fn light_kind(shape: &LightShape) -> PrimKind {
     }
 }
 
+/// `Light::nearest_hit` lane-wise for the lanes of `lanes` of `q`'s packet: each lane's
+/// `(t, id)` (the id in an f32's bits) and the lanes that meet the light.
+#[inline(always)]
+pub(crate) fn light_hits<L: Lane>(
+    q: &mut PacketQuery<'_, '_, L>,
+    light: &Light,
+    t_min: f32,
+    lanes: u32,
+) -> (L, L, u32) {
+    let p = q.p;
+    match &light.shape {
+        LightShape::Point { center, radius } => {
+            let (t, hits) = p.sphere(*center, *radius, t_min, f32::INFINITY, lanes);
+            (t, L::splat(f32::from_bits(light.first_id)), hits)
+        }
+        LightShape::Quads(qs) => p.quad_light_hits(qs, light.first_id, t_min, lanes, &mut q.tris),
+        LightShape::Triangles(ts) => {
+            p.triangle_light_hits(ts, light.first_id, t_min, lanes, &mut q.tris)
+        }
+    }
+}
+
 impl Bvh {
     /// Shadow rays: the lanes of `lanes` that `light` (lane `k` asking `light.lane(k)`)
     /// finds occluded, exactly as `occluded` answers for each lane's ray.
@@ -204,19 +239,7 @@ impl Bvh {
             return visible;
         }
         let mut q = PacketQuery::new(cx, p);
-        let (t_light, id_light, reach) = match &light.shape {
-            LightShape::Point { center, radius } => {
-                // `nearest_hit` of a point light, lane-wise.
-                let (t, hits) = p.sphere(*center, *radius, t_min, f32::INFINITY, lanes);
-                (t, L::splat(f32::from_bits(light.first_id)), hits)
-            }
-            LightShape::Quads(qs) => {
-                p.quad_light_hits(qs, light.first_id, t_min, lanes, &mut q.tris)
-            }
-            LightShape::Triangles(ts) => {
-                p.triangle_light_hits(ts, light.first_id, t_min, lanes, &mut q.tris)
-            }
-        };
+        let (t_light, id_light, reach) = light_hits(&mut q, light, t_min, lanes);
         if reach == 0 {
             return 0;
         }
