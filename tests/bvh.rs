@@ -371,7 +371,9 @@ fn tree_is_the_same_for_one_and_two_threads() {
         pool.install(|| {
             let mut s = scene.clone();
             let a = Accel::build(&mut s, AccelKind::Bvh);
-            let Some(b) = a.bvh().cloned() else { unreachable!() };
+            let Some(b) = a.bvh().cloned() else {
+                unreachable!()
+            };
             (b, s.triangles.id.clone(), s.triangles.a[0].clone())
         })
     };
