@@ -34,6 +34,17 @@ impl TrianglePool {
         self.id.is_empty()
     }
 
+    /// Room for `more` triangles (a mesh's, before they are pushed one by one).
+    pub fn reserve(&mut self, more: usize) {
+        for axis in 0..3 {
+            self.a[axis].reserve(more);
+            self.b[axis].reserve(more);
+            self.c[axis].reserve(more);
+        }
+        self.id.reserve(more);
+        self.object.reserve(more);
+    }
+
     pub fn push(&mut self, [a, b, c]: [Vec3; 3], id: u32, object: u32) {
         for axis in 0..3 {
             self.a[axis].push(a[axis]);

@@ -451,6 +451,7 @@ pub fn compile_within(
                     by_group[mesh.material.get(i).map_or(0, |&g| g as usize)].push(i);
                 }
                 let mut own = Vec::new();
+                triangles.reserve(mesh.triangles.len());
                 for (group, in_group) in by_group.into_iter().enumerate() {
                     if in_group.is_empty() {
                         continue;
