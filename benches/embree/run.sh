@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Our tracer against Embree 3 on the same rays, one thread, alternating in one run.
 #
-#   benches/embree/run.sh [ROUNDS] [PASSES]     (defaults 3 and 5)
+#   benches/embree/run.sh [ROUNDS] [PASSES] [rays|builds]   (defaults 3, 5, both)
 #
 # Seven cases. `bunny` and `closeup`: the built-in scenes as they are (a mesh and three
 # spheres; Embree gets the spheres as sphere points, in a second BVH of its own).
@@ -18,11 +18,17 @@
 # of its passes. The summary is the median,
 # over rounds, of those medians.
 #
+# Two build cases (`builds`): the tree over the bunny subdivided four times (1 271 808
+# triangles, `big-mesh-far.toml`) and five times (5 087 232, `big-mesh-5m.toml`), ours on
+# one thread and on two, Embree's `rtcCommitScene` on one (`threads=1`), each a median
+# of PASSES builds after an untimed one.
+#
 # Needs a C compiler and Embree 3 (Debian: `apt-get install libembree-dev`, 3.13.5).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 rounds=${1:-3}
 passes=${2:-5}
+only=${3:-both}
 work=${TMPDIR:-/tmp}/raytracer-vs-embree
 mkdir -p "$work"
 
@@ -33,6 +39,44 @@ fi
 cc -O3 -march=native -Wall -o "$work/embree_bench" benches/embree/embree_bench.c -lembree3
 cargo build --release --example vs_embree
 ours=target/release/examples/vs_embree
+
+if [ "$only" != rays ]; then
+    builds=("1.27M benches/embree/big-mesh-far.toml" "5M benches/embree/big-mesh-5m.toml")
+    blog="$work/builds.txt"
+    : >"$blog"
+    for r in $(seq "$rounds"); do
+        echo "build round $r, load: $(cut -d' ' -f1-3 /proc/loadavg)"
+        for c in "${builds[@]}"; do
+            read -r n scene <<<"$c"
+            "$ours" "$scene" "$work/build-$n.geometry" "$passes" - build | sed "s/^/$n ours /" | tee -a "$blog"
+            "$work/embree_bench" "$work/build-$n.geometry" "$passes" build | sed "s/^/$n embree /" | tee -a "$blog"
+        done
+    done
+    echo
+    echo "build times, median over $rounds rounds of each run's median, and their range (ms);"
+    echo "the ratio is ours on one thread over Embree on one:"
+    printf '%-6s %20s %20s %20s %7s\n' case "ours, 1 thread" "ours, 2 threads" "Embree, 1 thread" ratio
+    awk '/median/ {
+        for (i = 1; i <= NF; i++) if ($i == "median") v = $(i + 1)
+        who = $2 == "embree" ? "embree" : $2 $4
+        vals[$1, who] = vals[$1, who] " " v
+        if (!($1 in seen)) { seen[$1] = 1; order[++n] = $1 }
+    }
+    function stats(s, out,   a, k, i, j, t) {
+        k = split(s, a, " ")
+        for (i = 1; i <= k; i++) for (j = i + 1; j <= k; j++) if (a[j] + 0 < a[i] + 0) { t = a[i]; a[i] = a[j]; a[j] = t }
+        out[1] = k % 2 ? a[(k + 1) / 2] : (a[k / 2] + a[k / 2 + 1]) / 2
+        out[2] = a[1]; out[3] = a[k]
+    }
+    END {
+        for (i = 1; i <= n; i++) {
+            c = order[i]
+            stats(vals[c, "ours1"], o); stats(vals[c, "ours2"], t); stats(vals[c, "embree"], e)
+            printf "%-6s %6.0f (%4.0f-%4.0f) %6.0f (%4.0f-%4.0f) %6.0f (%4.0f-%4.0f) %6.2fx\n", c, o[1], o[2], o[3], t[1], t[2], t[3], e[1], e[2], e[3], o[1] / e[1]
+        }
+    }' "$blog"
+    [ "$only" = builds ] && exit 0
+fi
 
 # name, scene traced, scene the rays are made in, the set timed (all: every set), and
 # whether Embree gets the mesh alone

@@ -12,7 +12,13 @@
 //! Arguments: the scene traced, the output file, passes (default 5, 0: write only), the
 //! scene the rays are made in (default the same), and the one set to time (default all): `bunny-mesh.toml` is `bunny` with
 //! only its mesh and its light, traced with `bunny`'s rays (its shadow rays start on the
-//! ground too).
+//! ground too). The set `build` writes the geometry alone and times the tree's build
+//! instead, on one thread and on two (`embree_bench` times `rtcCommitScene` on the same
+//! file):
+//!
+//! ```sh
+//! cargo run --release --example vs_embree -- benches/embree/big-mesh-far.toml /tmp/b.rays 5 - build
+//! ```
 //!
 //! The sets, with our own answer (hits, or visible lanes) for the C side to check against:
 //! - `camera1`: the camera rays one at a time (`Accel::closest_hit`), in the order of
@@ -115,6 +121,9 @@ fn main() -> std::io::Result<()> {
         Some(Err(_)) => usage(),
     };
     let rays_from = args.get(4).unwrap_or(name);
+    if args.get(5).is_some_and(|s| s == "build") {
+        return time_builds(name, path, passes);
+    }
     let load = |n: &str| {
         let mut scene = Scene::load(n, Overrides::default()).unwrap_or_else(|e| {
             eprintln!("{e}");
@@ -211,6 +220,47 @@ fn main() -> std::io::Result<()> {
             each.join(" "),
             if s.occlusion { "unoccluded" } else { "hits" },
             s.answer
+        );
+    }
+    Ok(())
+}
+
+/// The set `build`: the scene's geometry written with no rays, and its tree built
+/// `passes` times on one thread and on two (each from a copy of the scene as loaded),
+/// after an untimed build; every build's time and their median.
+fn time_builds(name: &str, path: &str, passes: usize) -> std::io::Result<()> {
+    let scene = Scene::load(name, Overrides::default()).unwrap_or_else(|e| {
+        eprintln!("{e}");
+        std::process::exit(2)
+    });
+    write(path, &scene, &[])?;
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(std::io::Error::other)?;
+        let once = || {
+            let mut copy = scene.clone();
+            let t = Instant::now();
+            let accel = pool.install(|| Accel::build(&mut copy, AccelKind::Bvh));
+            let ms = t.elapsed().as_secs_f64() * 1e3;
+            drop(accel);
+            ms
+        };
+        once();
+        let mut times: Vec<f64> = (0..passes.max(1)).map(|_| once()).collect();
+        let each: Vec<String> = times.iter().map(|t| format!("{t:.1}")).collect();
+        times.sort_by(f64::total_cmp);
+        let m = times.len() / 2;
+        let median = if times.len() % 2 == 1 {
+            times[m]
+        } else {
+            0.5 * (times[m - 1] + times[m])
+        };
+        println!(
+            "build    {threads} thread(s), {} triangles: {} ms; median {median:.1} ms",
+            scene.triangles.len(),
+            each.join(" ")
         );
     }
     Ok(())
