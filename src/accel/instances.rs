@@ -17,10 +17,11 @@ use super::bvh::light_hits;
 use super::packet::RayPacket;
 use super::packet::{PacketHits, PacketQuery};
 use super::{Accel, Context, ShadowLanes, ShadowQuery, Tree};
-use crate::geometry::aabb::SlabRay;
+use crate::geometry::aabb::SLAB_FAR_SCALE;
 use crate::geometry::{keep_closest, Aabb, Hit, PrimKind, Ray};
 use crate::lanes::{set_lanes, Lane, Mask, MAX_WIDTH};
 use crate::scene::{Instance, Light, Scene};
+use glam::Vec3A;
 use std::cell::Cell;
 
 /// The prototype of `inst` and the ray moved into its space with the distance its
@@ -59,18 +60,18 @@ impl Accel {
         best: &mut Option<Hit>,
     ) {
         let scene = cx.scene;
-        let slab = SlabRay::new(ray);
+        let slab = BoxTest::new(ray);
         let best_t = Cell::new(best.map_or(t_max, |h| h.t));
         let nodes = Cell::new(0);
         self.instances.for_each_single(
             |b| {
                 nodes.set(nodes.get() + 1);
-                b.hit(&slab, t_min, best_t.get())
+                slab.enter(b, t_min, best_t.get())
             },
             |i| {
                 let inst = &scene.instances[i as usize];
                 let bound = best_t.get();
-                if inst.bounds.hit(&slab, t_min, bound).is_none() {
+                if slab.enter(&inst.bounds, t_min, bound).is_none() {
                     return true;
                 }
                 let (tree, proto) = self.prototype(scene, inst);
@@ -102,17 +103,17 @@ impl Accel {
         let Some((t_light, id_light)) = light.nearest_hit(ray, t_min) else {
             return true;
         };
-        let slab = SlabRay::new(ray);
+        let slab = BoxTest::new(ray);
         let nodes = Cell::new(0);
         let mut occluded = false;
         self.instances.for_each_single(
             |b| {
                 nodes.set(nodes.get() + 1);
-                b.hit(&slab, t_min, t_light)
+                slab.enter(b, t_min, t_light)
             },
             |i| {
                 let inst = &scene.instances[i as usize];
-                if inst.bounds.hit(&slab, t_min, t_light).is_none() {
+                if slab.enter(&inst.bounds, t_min, t_light).is_none() {
                     return true;
                 }
                 let (tree, proto) = self.prototype(scene, inst);
@@ -153,7 +154,11 @@ impl Accel {
                 }
                 let (tree, proto) = self.prototype(scene, inst);
                 let (q, dt) = moved_packet(p, inst, tree, lanes);
-                let found = tree.closest_hit_packet(Context::new(proto, cx.stats), &q, t_min);
+                // Bounded by each lane's best hit so far: as for one ray, a hit at
+                // t + dt ≤ bound has t ≤ bound.
+                let within = PacketHits::within(lanes, t.get());
+                let cx = Context::new(proto, cx.stats);
+                let found = tree.closest_hit_packet_within(cx, &q, t_min, within);
                 for k in set_lanes(found.found & lanes) {
                     let Some(hit) = found.hit(k) else { continue };
                     let hit = inst.world_hit(hit, dt.lane(k));
@@ -238,6 +243,37 @@ impl Accel {
     fn prototype<'s>(&'s self, scene: &'s Scene, inst: &Instance) -> (&'s Tree, &'s Scene) {
         let p = inst.prototype as usize;
         (&self.prototypes[p], &scene.prototypes[p].scene)
+    }
+}
+
+/// One ray's box test of the instance level: `Aabb::hit`'s robust slab test (a NaN
+/// from 0 · ∞ leaves its axis unconstrained, the far distance widened by
+/// `SLAB_FAR_SCALE`) on the three axes at once. Only a cull: conservative is enough.
+struct BoxTest {
+    origin: Vec3A,
+    inv: Vec3A,
+}
+
+impl BoxTest {
+    #[inline(always)]
+    fn new(ray: &Ray) -> BoxTest {
+        BoxTest {
+            origin: ray.origin.into(),
+            inv: Vec3A::ONE / Vec3A::from(ray.dir),
+        }
+    }
+
+    /// The entry distance into `b` within `[t_min, t_max]`, if the ray meets it there.
+    #[inline(always)]
+    fn enter(&self, b: &Aabb, t_min: f32, t_max: f32) -> Option<f32> {
+        let lo = (Vec3A::from(b.min) - self.origin) * self.inv;
+        let hi = (Vec3A::from(b.max) - self.origin) * self.inv;
+        let nan = lo.is_nan_mask() | hi.is_nan_mask();
+        let near = Vec3A::select(nan, Vec3A::NEG_INFINITY, lo.min(hi));
+        let far = Vec3A::select(nan, Vec3A::INFINITY, lo.max(hi) * SLAB_FAR_SCALE);
+        let enter = near.max_element().max(t_min);
+        let exit = far.min_element().min(t_max);
+        (enter <= exit).then_some(enter)
     }
 }
 
@@ -345,7 +381,8 @@ impl InstanceTree {
     }
 
     /// The instances whose box the lanes `enter(box)` returns meet, with those lanes,
-    /// nearest subtree first (by the first lane's entry), while `visit` returns true.
+    /// nearest subtree first (by the first lane's entry), while `visit(instance, lanes)`
+    /// returns true.
     #[inline(always)]
     fn for_each_lanes<L: Lane>(
         &self,

@@ -434,6 +434,29 @@ impl Tree {
         }
     }
 
+    /// `closest_hit_packet` from `st`'s bounds (`PacketHits::within`).
+    #[inline]
+    pub fn closest_hit_packet_within<L: Lane>(
+        &self,
+        mut cx: Context<'_>,
+        p: &RayPacket<L>,
+        t_min: f32,
+        st: PacketHits<L>,
+    ) -> PacketHits<L> {
+        match self {
+            Tree::Linear(l) => {
+                let mut hits = st;
+                for k in set_lanes(p.active) {
+                    let t_max = st.t.lane(k);
+                    let hit = l.closest_hit(cx.reborrow(), &p.ray(k), t_min, t_max);
+                    hits.set(k, hit.map_or(t_max, |h| h.t), hit);
+                }
+                hits
+            }
+            Tree::Bvh(b) => b.closest_hit_packet_within(cx, p, t_min, st),
+        }
+    }
+
     /// `Accel::light_visible_packet` over this tree's scene alone.
     #[inline]
     pub fn light_visible_packet<L: Lane>(

@@ -151,6 +151,20 @@ impl<L: Lane> PacketHits<L> {
         }
     }
 
+    /// No hits, each lane of `active` taking only a hit at a distance up to its lane of
+    /// `t_max` (a hit at exactly `t_max` whatever its id); the others at −∞.
+    #[inline(always)]
+    pub fn within(active: u32, t_max: L) -> Self {
+        Self {
+            t: L::select(
+                L::Mask::from_bits(active),
+                t_max,
+                L::splat(f32::NEG_INFINITY),
+            ),
+            ..Self::none(active)
+        }
+    }
+
     /// Lane `k`'s hit.
     #[inline(always)]
     pub fn hit(&self, k: usize) -> Option<Hit> {
@@ -330,14 +344,27 @@ impl Bvh {
 
     /// The closest hit of every active lane in `[t_min, ∞)`, exactly as `closest_hit`
     /// returns it for that lane's ray.
+    #[inline(always)]
     pub fn closest_hit_packet<L: Lane>(
         &self,
         cx: Context<'_>,
         p: &RayPacket<L>,
         t_min: f32,
     ) -> PacketHits<L> {
+        self.closest_hit_packet_within(cx, p, t_min, PacketHits::none(p.active))
+    }
+
+    /// `closest_hit_packet` from the bounds and hits of `st` (`PacketHits::within`: a
+    /// lane takes only a hit in `[t_min, st.t]`).
+    pub fn closest_hit_packet_within<L: Lane>(
+        &self,
+        cx: Context<'_>,
+        p: &RayPacket<L>,
+        t_min: f32,
+        st: PacketHits<L>,
+    ) -> PacketHits<L> {
         let q = &mut PacketQuery::new(cx, p);
-        let mut st = PacketHits::none(p.active);
+        let mut st = st;
         self.beside_runs(
             &p.cull.beside,
             #[inline(always)]
