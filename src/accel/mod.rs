@@ -18,7 +18,7 @@ pub mod shadow;
 mod stack;
 
 use crate::geometry::{Hit, Ray};
-use crate::lanes::{set_lanes, Lane};
+use crate::lanes::{lanes_where, set_lanes, Lane};
 use crate::scene::{Light, Scene};
 use bvh::{Bvh, ShadowLanes};
 pub use instances::InstanceTree;
@@ -299,13 +299,9 @@ impl Accel {
         let instances = !cx.scene.instances.is_empty();
         if instances && light.primitives() > bvh::LIGHT_PRIMITIVES_SCANNED {
             cx.stats.single_lanes += lanes.count_ones() as u64;
-            let mut visible = 0;
-            for k in set_lanes(lanes) {
-                if self.light_visible(cx.reborrow(), &p.ray(k), t_min, light) {
-                    visible |= 1 << k;
-                }
-            }
-            return visible;
+            return lanes_where(lanes, |k| {
+                self.light_visible(cx.reborrow(), &p.ray(k), t_min, light)
+            });
         }
         let visible =
             (self.tree).light_visible_packet(cx.reborrow(), p, t_min, light, lanes, among);
@@ -469,15 +465,9 @@ impl Tree {
         among: Option<Candidates<'_>>,
     ) -> u32 {
         match self {
-            Tree::Linear(_) => {
-                let mut visible = 0;
-                for k in set_lanes(lanes) {
-                    if self.light_visible(cx.reborrow(), &p.ray(k), t_min, light) {
-                        visible |= 1 << k;
-                    }
-                }
-                visible
-            }
+            Tree::Linear(_) => lanes_where(lanes, |k| {
+                self.light_visible(cx.reborrow(), &p.ray(k), t_min, light)
+            }),
             Tree::Bvh(b) => b.light_visible_packet(cx, p, t_min, light, lanes, among),
         }
     }
@@ -493,15 +483,9 @@ impl Tree {
         lanes: u32,
     ) -> u32 {
         match self {
-            Tree::Linear(_) => {
-                let mut occluded = 0;
-                for k in set_lanes(lanes) {
-                    if self.occluded(cx.reborrow(), &p.ray(k), light.lane(k)) {
-                        occluded |= 1 << k;
-                    }
-                }
-                occluded
-            }
+            Tree::Linear(_) => lanes_where(lanes, |k| {
+                self.occluded(cx.reborrow(), &p.ray(k), light.lane(k))
+            }),
             Tree::Bvh(b) => b.occluded_packet(cx, p, light, lanes),
         }
     }

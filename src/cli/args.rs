@@ -274,7 +274,7 @@ pub struct ViewArgs {
     /// How pixel jitter, light samples and bounces are spread.
     #[arg(long, value_enum, default_value_t = Sampler::Sobol)]
     pub sampler: Sampler,
-    /// Rays per packet: 1, 4 or 8; the image is the same bits.
+    /// Rays per packet: 1, 4, 8 or 16; the image is the same bits.
     #[arg(long, default_value_t = PacketWidth::widest(), hide_default_value = true)]
     pub packet_width: PacketWidth,
 }

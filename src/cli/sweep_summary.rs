@@ -123,21 +123,7 @@ pub fn summary(points: &[Point]) -> String {
                         interpolate_log(&base_mt, p.errors.mse).map(|l| l.exp() / p.seconds)
                     })
                     .collect();
-                let range = |g: &[f64]| {
-                    if g.is_empty() {
-                        "n/a".to_string()
-                    } else {
-                        let mut g = g.to_vec();
-                        g.sort_by(f64::total_cmp);
-                        format!(
-                            "median {:.2}x (range {:.2}–{:.2}, {} points)",
-                            median(&g),
-                            g[0],
-                            g[g.len() - 1],
-                            g.len()
-                        )
-                    }
-                };
+                let range = |g: &[f64]| gains(g, "n/a");
                 let _ = write!(
                     s,
                     "; vs independent: MSE lower at equal time {}, time shorter at equal MSE {}",
@@ -284,8 +270,13 @@ pub(super) fn own_settings(points: &[Point], own_spp: u32) -> String {
 
 /// A list of ratios as its median and range.
 fn gain_range(g: &[f64]) -> String {
+    gains(g, "n/a (no overlap)")
+}
+
+/// The median of the gains `g`, their range and their number; `none` without any.
+fn gains(g: &[f64], none: &str) -> String {
     if g.is_empty() {
-        return "n/a (no overlap)".to_string();
+        return none.to_string();
     }
     let mut g = g.to_vec();
     g.sort_by(f64::total_cmp);

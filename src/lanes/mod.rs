@@ -65,6 +65,12 @@ pub fn set_lanes(mask: u32) -> impl Iterator<Item = usize> {
     })
 }
 
+/// The lanes of `mask` for which `f(lane)` holds, as a bit mask (asked in lane order).
+#[inline(always)]
+pub fn lanes_where(mask: u32, mut f: impl FnMut(usize) -> bool) -> u32 {
+    set_lanes(mask).fold(0, |m, k| if f(k) { m | 1 << k } else { m })
+}
+
 /// Whether the first `width` entries of `xs` are all equal: an OR of differences, with
 /// no branch per entry (`width` ≥ 1).
 #[inline(always)]

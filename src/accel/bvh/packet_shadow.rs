@@ -10,7 +10,7 @@ use crate::accel::shadow::Candidates;
 use crate::accel::stack::{TraversalStack, STACK4};
 use crate::accel::{Context, ShadowQuery};
 use crate::geometry::PrimKind;
-use crate::lanes::{set_lanes, Lane, Mask};
+use crate::lanes::{lanes_where, set_lanes, Lane, Mask};
 use crate::scene::{Light, LightShape};
 use std::mem::MaybeUninit;
 
@@ -230,13 +230,9 @@ impl Bvh {
         if light.primitives() > LIGHT_PRIMITIVES_SCANNED {
             let mut cx = cx;
             cx.stats.single_lanes += lanes.count_ones() as u64;
-            let mut visible = 0;
-            for k in set_lanes(lanes) {
-                if self.nearest_is_light(cx.reborrow(), &p.ray(k), t_min, light) {
-                    visible |= 1 << k;
-                }
-            }
-            return visible;
+            return lanes_where(lanes, |k| {
+                self.nearest_is_light(cx.reborrow(), &p.ray(k), t_min, light)
+            });
         }
         let mut q = PacketQuery::new(cx, p);
         let (t_light, id_light, reach) = light_hits(&mut q, light, t_min, lanes);
