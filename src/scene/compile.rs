@@ -473,7 +473,9 @@ pub fn compile_within(
                         }
                         _ => (object, None),
                     };
-                    let mut shape = Vec::with_capacity(in_group.len());
+                    // A light's shape: a copy of its triangles, only for a light.
+                    let is_light = radiance.is_some() || light_radiance.is_some();
+                    let mut shape = Vec::with_capacity(if is_light { in_group.len() } else { 0 });
                     let mut first = None;
                     for i in in_group {
                         let (tri, primitive) = (mesh.triangles[i], id());
@@ -483,7 +485,9 @@ pub fn compile_within(
                             None => triangles.push(tri, primitive, owner),
                         }
                         bounds = bounds.union(Aabb::from_points(&tri));
-                        shape.push(tri);
+                        if is_light {
+                            shape.push(tri);
+                        }
                     }
                     match (owner == object, radiance, first) {
                         (true, _, _) => own = shape,
