@@ -7,8 +7,9 @@
 //! through the mesh's tree.
 //!
 //! The instances' boxes are in a binary tree of their own (`InstanceTree`, built by the
-//! same binned SAH as the pools' trees), traversed nearest child first so that a near
-//! instance's hit prunes the ones behind it. Instances are never lights: a shadow ray
+//! same binned SAH as the pools' trees; single rays take its levels two at a time, four
+//! boxes in one test), traversed nearest child first so that a near instance's hit
+//! prunes the ones behind it. Instances are never lights: a shadow ray
 //! asks the light's own nearest hit (as the tree over the pools does), then whether an
 //! instance's primitive beats it.
 
@@ -21,7 +22,7 @@ use crate::geometry::aabb::SLAB_FAR_SCALE;
 use crate::geometry::{keep_closest, Aabb, Hit, PrimKind, Ray};
 use crate::lanes::{set_lanes, Lane, Mask, MAX_WIDTH};
 use crate::scene::{Instance, Light, Scene};
-use glam::Vec3A;
+use glam::{Vec3A, Vec4};
 use std::cell::Cell;
 
 /// The prototype of `inst` and the ray moved into its space with the distance its
@@ -62,12 +63,10 @@ impl Accel {
         let scene = cx.scene;
         let slab = BoxTest::new(ray);
         let best_t = Cell::new(best.map_or(t_max, |h| h.t));
-        let nodes = Cell::new(0);
-        self.instances.for_each_single(
-            |b| {
-                nodes.set(nodes.get() + 1);
-                slab.enter(b, t_min, best_t.get())
-            },
+        let nodes = self.instances.for_each_single(
+            &slab,
+            t_min,
+            || best_t.get(),
             |i| {
                 let inst = &scene.instances[i as usize];
                 let bound = best_t.get();
@@ -85,7 +84,7 @@ impl Accel {
                 true
             },
         );
-        cx.stats.nodes += nodes.get();
+        cx.stats.nodes += nodes;
     }
 
     /// Whether an instance's primitive beats the light's own nearest hit on `ray`, for a
@@ -104,13 +103,11 @@ impl Accel {
             return true;
         };
         let slab = BoxTest::new(ray);
-        let nodes = Cell::new(0);
         let mut occluded = false;
-        self.instances.for_each_single(
-            |b| {
-                nodes.set(nodes.get() + 1);
-                slab.enter(b, t_min, t_light)
-            },
+        let nodes = self.instances.for_each_single(
+            &slab,
+            t_min,
+            || t_light,
             |i| {
                 let inst = &scene.instances[i as usize];
                 if slab.enter(&inst.bounds, t_min, t_light).is_none() {
@@ -123,7 +120,7 @@ impl Accel {
                 !occluded
             },
         );
-        cx.stats.nodes += nodes.get();
+        cx.stats.nodes += nodes;
         occluded
     }
 
@@ -263,6 +260,24 @@ impl BoxTest {
         }
     }
 
+    /// `enter` for the four boxes of `node`: their entry distances and the slots met.
+    #[inline(always)]
+    fn enter4(&self, node: &TopNode4, t_min: f32, t_max: f32) -> ([f32; 4], u32) {
+        let mut enter = Vec4::splat(t_min);
+        let mut exit = Vec4::splat(t_max);
+        for axis in 0..3 {
+            let (o, inv) = (Vec4::splat(self.origin[axis]), Vec4::splat(self.inv[axis]));
+            let lo = (node.lo[axis] - o) * inv;
+            let hi = (node.hi[axis] - o) * inv;
+            let nan = lo.is_nan_mask() | hi.is_nan_mask();
+            let near = Vec4::select(nan, Vec4::NEG_INFINITY, lo.min(hi));
+            let far = Vec4::select(nan, Vec4::INFINITY, lo.max(hi) * SLAB_FAR_SCALE);
+            enter = enter.max(near);
+            exit = exit.min(far);
+        }
+        (enter.to_array(), enter.cmple(exit).bitmask() & node.valid)
+    }
+
     /// The entry distance into `b` within `[t_min, t_max]`, if the ray meets it there.
     #[inline(always)]
     fn enter(&self, b: &Aabb, t_min: f32, t_max: f32) -> Option<f32> {
@@ -288,10 +303,28 @@ struct TopNode {
     count: u32,
 }
 
-/// A binary tree over the instances' world boxes, in pre-order.
+/// Four children of `InstanceTree::wide`: their boxes by axis (lane `c` child `c`),
+/// their codes (a wide node's index, or `TOP_LEAF` and a binary leaf's index), and
+/// which slots hold one.
+#[derive(Clone, Copy, Debug)]
+struct TopNode4 {
+    lo: [Vec4; 3],
+    hi: [Vec4; 3],
+    child: [u32; 4],
+    valid: u32,
+}
+
+/// A child code of `TopNode4` that names a leaf of the binary tree.
+const TOP_LEAF: u32 = 1 << 31;
+
+/// A binary tree over the instances' world boxes, in pre-order (packets traverse it), and
+/// the same tree with its levels taken two at a time into 4-wide nodes (single rays).
 #[derive(Clone, Debug, Default)]
 pub struct InstanceTree {
     nodes: Vec<TopNode>,
+    wide: Vec<TopNode4>,
+    /// The code of the 4-wide tree's root (`TOP_LEAF` and 0 when the root is a leaf).
+    root4: Option<u32>,
     /// Instance indices, each leaf's a contiguous range.
     order: Vec<u32>,
 }
@@ -309,10 +342,50 @@ impl InstanceTree {
         };
         let mut t = InstanceTree {
             nodes: Vec::new(),
+            wide: Vec::new(),
+            root4: None,
             order: refs.iter().map(PrimRef::index).collect(),
         };
         t.flatten(&tree, BuildTree::ROOT);
+        t.root4 = Some(t.widen(0));
         t
+    }
+
+    /// The 4-wide code of binary node `at`: a leaf's, or a wide node over its
+    /// grandchildren (its children where they are leaves).
+    fn widen(&mut self, at: u32) -> u32 {
+        let n = self.nodes[at as usize];
+        if n.right == 0 {
+            return TOP_LEAF | at;
+        }
+        let mut kids = Vec::with_capacity(4);
+        for c in [at + 1, n.right] {
+            let k = self.nodes[c as usize];
+            if k.right == 0 {
+                kids.push(c);
+            } else {
+                kids.extend([c + 1, k.right]);
+            }
+        }
+        let index = self.wide.len();
+        self.wide.push(TopNode4 {
+            lo: [Vec4::ZERO; 3],
+            hi: [Vec4::ZERO; 3],
+            child: [0; 4],
+            valid: 0,
+        });
+        let mut node = self.wide[index];
+        for (slot, &k) in kids.iter().enumerate() {
+            let b = self.nodes[k as usize].bounds;
+            for axis in 0..3 {
+                node.lo[axis][slot] = b.min[axis];
+                node.hi[axis][slot] = b.max[axis];
+            }
+            node.child[slot] = self.widen(k);
+            node.valid |= 1 << slot;
+        }
+        self.wide[index] = node;
+        index as u32
     }
 
     fn flatten(&mut self, tree: &BuildTree, id: NodeId) -> u32 {
@@ -333,51 +406,53 @@ impl InstanceTree {
         at as u32
     }
 
-    /// Each instance whose box `hit(box)` (the node's entry distance, or `None`) meets,
-    /// nearest subtree first, while `visit(instance)` returns true.
+    /// Each instance in a leaf whose box `ray` meets within `[t_min, bound()]`, nearest
+    /// subtree first, through the 4-wide nodes, while `visit(instance)` returns true;
+    /// the number of boxes tested.
     #[inline(always)]
     fn for_each_single(
         &self,
-        mut enter: impl FnMut(&Aabb) -> Option<f32>,
+        ray: &BoxTest,
+        t_min: f32,
+        bound: impl Fn() -> f32,
         mut visit: impl FnMut(u32) -> bool,
-    ) {
-        if self.nodes.is_empty() || enter(&self.nodes[0].bounds).is_none() {
-            return;
-        }
+    ) -> u64 {
+        let Some(root) = self.root4 else {
+            return 0;
+        };
+        let mut tested = 0;
         let mut stack = [0u32; TOP_STACK];
+        stack[0] = root;
         let mut top = 1;
         while top > 0 {
             top -= 1;
-            let n = &self.nodes[stack[top] as usize];
-            if n.right == 0 {
+            let code = stack[top];
+            if code & TOP_LEAF != 0 {
+                let n = &self.nodes[(code & !TOP_LEAF) as usize];
                 for &i in &self.order[n.start as usize..(n.start + n.count) as usize] {
                     if !visit(i) {
-                        return;
+                        return tested;
                     }
                 }
                 continue;
             }
-            let (l, r) = (stack[top] + 1, n.right);
-            let el = enter(&self.nodes[l as usize].bounds);
-            let er = enter(&self.nodes[r as usize].bounds);
-            match (el, er) {
-                (Some(a), Some(b)) => {
-                    let (near, far) = if b < a { (r, l) } else { (l, r) };
-                    stack[top] = far;
-                    stack[top + 1] = near;
-                    top += 2;
-                }
-                (Some(_), None) => {
-                    stack[top] = l;
-                    top += 1;
-                }
-                (None, Some(_)) => {
-                    stack[top] = r;
-                    top += 1;
-                }
-                (None, None) => {}
+            let node = &self.wide[code as usize];
+            tested += node.valid.count_ones() as u64;
+            let (enter, hit) = ray.enter4(node, t_min, bound());
+            // The children met, farthest pushed first.
+            let mut met = [(0.0f32, 0u32); 4];
+            let mut n = 0;
+            for c in set_lanes(hit) {
+                met[n] = (enter[c], node.child[c]);
+                n += 1;
+            }
+            met[..n].sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
+            for &(_, child) in &met[..n] {
+                stack[top] = child;
+                top += 1;
             }
         }
+        tested
     }
 
     /// The instances whose box the lanes `enter(box)` returns meet, with those lanes,
