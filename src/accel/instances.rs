@@ -6,17 +6,18 @@
 //! agree bit for bit: a packet's lanes in an instance are a packet of the moved rays
 //! through the mesh's tree.
 //!
-//! The instances' boxes are in a binary tree of their own (`InstanceTree`, built by the
-//! same binned SAH as the pools' trees; single rays take its levels two at a time, four
-//! boxes in one test), traversed nearest child first so that a near instance's hit
+//! The instances' boxes are in a tree of their own (`InstanceTree`, built by the same
+//! binned SAH as the pools' trees: binary for packets, collapsed to the pools' 8-wide
+//! nodes for single rays), traversed nearest child first so that a near instance's hit
 //! prunes the ones behind it. Instances are never lights: a shadow ray
 //! asks the light's own nearest hit (as the tree over the pools does), then whether an
 //! instance's primitive beats it.
 
 use super::build::{self, BuildTree, NodeId, PrimRef};
-use super::bvh::light_hits;
+use super::bvh::{collapse, decode_leaf, light_hits, BoxRay8, Node8, Shape, Wide, LEAF};
 use super::packet::RayPacket;
 use super::packet::{PacketHits, PacketQuery};
+use super::stack::{self, TraversalStack, STACK8};
 use super::{Accel, Context, ShadowLanes, ShadowQuery, Tree};
 use crate::geometry::aabb::SLAB_FAR_SCALE;
 use crate::geometry::{keep_closest, Aabb, Hit, PrimKind, Ray};
@@ -24,6 +25,7 @@ use crate::lanes::{set_lanes, Lane, Mask, MAX_WIDTH};
 use crate::scene::{Instance, Light, Scene};
 use glam::{Vec3A, Vec4};
 use std::cell::Cell;
+use std::mem::MaybeUninit;
 
 /// The prototype of `inst` and the ray moved into its space with the distance its
 /// origin was advanced by (the ray itself and 0 for the identity).
@@ -61,16 +63,16 @@ impl Accel {
         best: &mut Option<Hit>,
     ) {
         let scene = cx.scene;
-        let slab = BoxTest::new(ray);
+        let single = SingleRay::new(ray);
         let best_t = Cell::new(best.map_or(t_max, |h| h.t));
         let nodes = self.instances.for_each_single(
-            &slab,
+            &single.nodes,
             t_min,
             || best_t.get(),
-            |i| {
+            |i, alone| {
                 let inst = &scene.instances[i as usize];
                 let bound = best_t.get();
-                if slab.enter(&inst.bounds, t_min, bound).is_none() {
+                if !alone && !single.leaves.meets(&inst.bounds, t_min, bound) {
                     return true;
                 }
                 let (tree, proto) = self.prototype(scene, inst);
@@ -102,15 +104,15 @@ impl Accel {
         let Some((t_light, id_light)) = light.nearest_hit(ray, t_min) else {
             return true;
         };
-        let slab = BoxTest::new(ray);
+        let single = SingleRay::new(ray);
         let mut occluded = false;
         let nodes = self.instances.for_each_single(
-            &slab,
+            &single.nodes,
             t_min,
             || t_light,
-            |i| {
+            |i, alone| {
                 let inst = &scene.instances[i as usize];
-                if slab.enter(&inst.bounds, t_min, t_light).is_none() {
+                if !alone && !single.leaves.meets(&inst.bounds, t_min, t_light) {
                     return true;
                 }
                 let (tree, proto) = self.prototype(scene, inst);
@@ -243,8 +245,8 @@ impl Accel {
     }
 }
 
-/// One ray's box test of the instance level: `Aabb::hit`'s robust slab test (a NaN
-/// from 0 · ∞ leaves its axis unconstrained, the far distance widened by
+/// One ray's box test of an instance in a leaf of several: `Aabb::hit`'s robust slab
+/// test (a NaN from 0 · ∞ leaves its axis unconstrained, the far distance widened by
 /// `SLAB_FAR_SCALE`) on the three axes at once. Only a cull: conservative is enough.
 struct BoxTest {
     origin: Vec3A,
@@ -252,43 +254,41 @@ struct BoxTest {
 }
 
 impl BoxTest {
+    /// From the ray's origin and the reciprocals of its direction (`inv.xyz`).
     #[inline(always)]
-    fn new(ray: &Ray) -> BoxTest {
+    fn new(ray: &Ray, inv: Vec4) -> BoxTest {
         BoxTest {
             origin: ray.origin.into(),
-            inv: Vec3A::ONE / Vec3A::from(ray.dir),
+            inv: inv.truncate().into(),
         }
     }
 
-    /// `enter` for the four boxes of `node`: their entry distances and the slots met.
+    /// Whether the ray meets `b` within `[t_min, t_max]`.
     #[inline(always)]
-    fn enter4(&self, node: &TopNode4, t_min: f32, t_max: f32) -> ([f32; 4], u32) {
-        let mut enter = Vec4::splat(t_min);
-        let mut exit = Vec4::splat(t_max);
-        for axis in 0..3 {
-            let (o, inv) = (Vec4::splat(self.origin[axis]), Vec4::splat(self.inv[axis]));
-            let lo = (node.lo[axis] - o) * inv;
-            let hi = (node.hi[axis] - o) * inv;
-            let nan = lo.is_nan_mask() | hi.is_nan_mask();
-            let near = Vec4::select(nan, Vec4::NEG_INFINITY, lo.min(hi));
-            let far = Vec4::select(nan, Vec4::INFINITY, lo.max(hi) * SLAB_FAR_SCALE);
-            enter = enter.max(near);
-            exit = exit.min(far);
-        }
-        (enter.to_array(), enter.cmple(exit).bitmask() & node.valid)
-    }
-
-    /// The entry distance into `b` within `[t_min, t_max]`, if the ray meets it there.
-    #[inline(always)]
-    fn enter(&self, b: &Aabb, t_min: f32, t_max: f32) -> Option<f32> {
+    fn meets(&self, b: &Aabb, t_min: f32, t_max: f32) -> bool {
         let lo = (Vec3A::from(b.min) - self.origin) * self.inv;
         let hi = (Vec3A::from(b.max) - self.origin) * self.inv;
         let nan = lo.is_nan_mask() | hi.is_nan_mask();
         let near = Vec3A::select(nan, Vec3A::NEG_INFINITY, lo.min(hi));
         let far = Vec3A::select(nan, Vec3A::INFINITY, lo.max(hi) * SLAB_FAR_SCALE);
-        let enter = near.max_element().max(t_min);
-        let exit = far.min_element().min(t_max);
-        (enter <= exit).then_some(enter)
+        near.max_element().max(t_min) <= far.min_element().min(t_max)
+    }
+}
+
+/// One ray at the instance level: the 8-wide box test's constants, and the leaves'.
+struct SingleRay {
+    nodes: BoxRay8,
+    leaves: BoxTest,
+}
+
+impl SingleRay {
+    #[inline(always)]
+    fn new(ray: &Ray) -> SingleRay {
+        let inv = Vec4::ONE / ray.dir.extend(1.0);
+        SingleRay {
+            nodes: BoxRay8::from_inv(ray, inv),
+            leaves: BoxTest::new(ray, inv),
+        }
     }
 }
 
@@ -303,34 +303,22 @@ struct TopNode {
     count: u32,
 }
 
-/// Four children of `InstanceTree::wide`: their boxes by axis (lane `c` child `c`),
-/// their codes (a wide node's index, or `TOP_LEAF` and a binary leaf's index), and
-/// which slots hold one.
-#[derive(Clone, Copy, Debug)]
-struct TopNode4 {
-    lo: [Vec4; 3],
-    hi: [Vec4; 3],
-    child: [u32; 4],
-    valid: u32,
-}
-
-/// A child code of `TopNode4` that names a leaf of the binary tree.
-const TOP_LEAF: u32 = 1 << 31;
-
 /// A binary tree over the instances' world boxes, in pre-order (packets traverse it), and
-/// the same tree with its levels taken two at a time into 4-wide nodes (single rays).
+/// the same tree collapsed to the pools' 8-wide nodes (`Node8`, the same leaves), which
+/// single rays traverse as they do the pools' tree: one 8-lane test for a node's
+/// children, nearest first, a popped node skipped when a nearer hit has passed its entry.
 #[derive(Clone, Debug, Default)]
 pub struct InstanceTree {
     nodes: Vec<TopNode>,
-    wide: Vec<TopNode4>,
-    /// The code of the 4-wide tree's root (`TOP_LEAF` and 0 when the root is a leaf).
-    root4: Option<u32>,
+    nodes8: Vec<Node8>,
+    /// The code of the 8-wide tree's root: an inner node or a leaf (`LEAF`).
+    root8: Option<u32>,
     /// Instance indices, each leaf's a contiguous range.
     order: Vec<u32>,
 }
 
-/// Deepest path of an `InstanceTree` a traversal's stack holds (the SAH build's bound).
-const TOP_STACK: usize = build::MAX_DEPTH + 2;
+/// The binary traversal's stack: it pops a node and pushes at most its two children.
+const TOP_STACK: usize = stack::capacity(2);
 
 impl InstanceTree {
     pub fn build(scene: &Scene) -> InstanceTree {
@@ -342,50 +330,21 @@ impl InstanceTree {
         };
         let mut t = InstanceTree {
             nodes: Vec::new(),
-            wide: Vec::new(),
-            root4: None,
+            nodes8: Vec::new(),
+            root8: None,
             order: refs.iter().map(PrimRef::index).collect(),
         };
         t.flatten(&tree, BuildTree::ROOT);
-        t.root4 = Some(t.widen(0));
+        let mut shape = Shape::default();
+        t.root8 = Some(collapse(
+            &mut t.nodes8,
+            &tree,
+            BuildTree::ROOT,
+            None,
+            0,
+            &mut shape,
+        ));
         t
-    }
-
-    /// The 4-wide code of binary node `at`: a leaf's, or a wide node over its
-    /// grandchildren (its children where they are leaves).
-    fn widen(&mut self, at: u32) -> u32 {
-        let n = self.nodes[at as usize];
-        if n.right == 0 {
-            return TOP_LEAF | at;
-        }
-        let mut kids = Vec::with_capacity(4);
-        for c in [at + 1, n.right] {
-            let k = self.nodes[c as usize];
-            if k.right == 0 {
-                kids.push(c);
-            } else {
-                kids.extend([c + 1, k.right]);
-            }
-        }
-        let index = self.wide.len();
-        self.wide.push(TopNode4 {
-            lo: [Vec4::ZERO; 3],
-            hi: [Vec4::ZERO; 3],
-            child: [0; 4],
-            valid: 0,
-        });
-        let mut node = self.wide[index];
-        for (slot, &k) in kids.iter().enumerate() {
-            let b = self.nodes[k as usize].bounds;
-            for axis in 0..3 {
-                node.lo[axis][slot] = b.min[axis];
-                node.hi[axis][slot] = b.max[axis];
-            }
-            node.child[slot] = self.widen(k);
-            node.valid |= 1 << slot;
-        }
-        self.wide[index] = node;
-        index as u32
     }
 
     fn flatten(&mut self, tree: &BuildTree, id: NodeId) -> u32 {
@@ -407,52 +366,57 @@ impl InstanceTree {
     }
 
     /// Each instance in a leaf whose box `ray` meets within `[t_min, bound()]`, nearest
-    /// subtree first, through the 4-wide nodes, while `visit(instance)` returns true;
-    /// the number of boxes tested.
+    /// subtree first, while `visit(instance, alone)` returns true (`alone`: the only
+    /// instance of its leaf, whose box the ray was then seen to meet); the number of
+    /// nodes visited. As `Bvh::traverse`: the node being visited stays in a register,
+    /// only the farther children are pushed, with their entries.
     #[inline(always)]
     fn for_each_single(
         &self,
-        ray: &BoxTest,
+        ray: &BoxRay8,
         t_min: f32,
         bound: impl Fn() -> f32,
-        mut visit: impl FnMut(u32) -> bool,
+        mut visit: impl FnMut(u32, bool) -> bool,
     ) -> u64 {
-        let Some(root) = self.root4 else {
+        let Some(mut code) = self.root8 else {
             return 0;
         };
-        let mut tested = 0;
-        let mut stack = [0u32; TOP_STACK];
-        stack[0] = root;
-        let mut top = 1;
-        while top > 0 {
-            top -= 1;
-            let code = stack[top];
-            if code & TOP_LEAF != 0 {
-                let n = &self.nodes[(code & !TOP_LEAF) as usize];
-                for &i in &self.order[n.start as usize..(n.start + n.count) as usize] {
-                    if !visit(i) {
-                        return tested;
+        let mut slots = MaybeUninit::<[(u32, f32); STACK8]>::uninit();
+        let mut stack = TraversalStack::new(&mut slots);
+        let mut nodes = 0;
+        loop {
+            if code & LEAF == 0 {
+                nodes += 1;
+                let node = &self.nodes8[code as usize];
+                let (entry, mask) = node.test(ray, t_min, bound());
+                if mask != 0 {
+                    code = if mask & (mask - 1) == 0 {
+                        node.child(mask.trailing_zeros() as usize)
+                    } else {
+                        node.child(node.push_farther(mask, &entry, &mut stack))
+                    };
+                    continue;
+                }
+            } else {
+                let (_, start, count) = decode_leaf(code);
+                let (start, count) = (start as usize, count as usize);
+                for &i in &self.order[start..start + count] {
+                    if !visit(i, count == 1) {
+                        return nodes;
                     }
                 }
-                continue;
             }
-            let node = &self.wide[code as usize];
-            tested += node.valid.count_ones() as u64;
-            let (enter, hit) = ray.enter4(node, t_min, bound());
-            // The children met, farthest pushed first.
-            let mut met = [(0.0f32, 0u32); 4];
-            let mut n = 0;
-            for c in set_lanes(hit) {
-                met[n] = (enter[c], node.child[c]);
-                n += 1;
-            }
-            met[..n].sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
-            for &(_, child) in &met[..n] {
-                stack[top] = child;
-                top += 1;
+            // The next node whose entry is still within the bound.
+            loop {
+                let Some((next, entry)) = stack.pop() else {
+                    return nodes;
+                };
+                if entry <= bound() {
+                    code = next;
+                    break;
+                }
             }
         }
-        tested
     }
 
     /// The instances whose box the lanes `enter(box)` returns meet, with those lanes,
@@ -468,12 +432,10 @@ impl InstanceTree {
         if self.nodes.is_empty() || lanes == 0 {
             return;
         }
-        let mut stack = [(0u32, 0u32); TOP_STACK];
-        stack[0] = (0, lanes);
-        let mut top = 1;
-        while top > 0 {
-            top -= 1;
-            let (at, lanes) = stack[top];
+        let mut slots = MaybeUninit::<[(u32, u32); TOP_STACK]>::uninit();
+        let mut stack = TraversalStack::new(&mut slots);
+        stack.push((0, lanes));
+        while let Some((at, lanes)) = stack.pop() {
             let n = &self.nodes[at as usize];
             if n.right == 0 {
                 for &i in &self.order[n.start as usize..(n.start + n.count) as usize] {
@@ -498,8 +460,7 @@ impl InstanceTree {
             };
             for (node, m) in [far, near] {
                 if m != 0 {
-                    stack[top] = (node, m);
-                    top += 1;
+                    stack.push((node, m));
                 }
             }
         }

@@ -15,7 +15,7 @@ use crate::geometry::{Aabb, PrimKind};
 use crate::lanes::{Mask, V3};
 use crate::scene::Scene;
 pub use node::{decode_leaf, encode_leaf, slab, BoxRay, Node, Node4, Node8, EMPTY, LEAF};
-pub(crate) use node::{plane_rows, FAR_SCALE, NEAR_SCALE};
+pub(crate) use node::{plane_rows, Wide, FAR_SCALE, NEAR_SCALE};
 pub use node8::BoxRay8;
 pub use packet_closest::PacketHits;
 pub(crate) use packet_shadow::light_hits;
@@ -352,7 +352,7 @@ impl Bvh {
 
 /// Leaves and depth of a collapsed tree.
 #[derive(Clone, Copy, Debug, Default)]
-struct Shape {
+pub(crate) struct Shape {
     leaves: u32,
     depth: u32,
 }
@@ -360,7 +360,7 @@ struct Shape {
 /// Turn the binary subtree at `node` into `W`-wide nodes appended to `nodes`
 /// (pre-order, so the layout is deterministic) and return its code. `position`: each
 /// reference's index in its kind's reordered pool (`None`: the reference's own index).
-fn collapse<const W: usize>(
+pub(crate) fn collapse<const W: usize>(
     nodes: &mut Vec<Node<W>>,
     tree: &BuildTree,
     node: NodeId,

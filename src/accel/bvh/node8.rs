@@ -28,7 +28,7 @@ impl BoxRay8 {
     /// `BoxRay::from_inv`. The rows come from a table by the three sign bits (one
     /// `movmskps`): computing them took ~30 instructions a ray.
     #[inline(always)]
-    pub(super) fn from_inv(ray: &Ray, q: Vec4) -> Self {
+    pub(crate) fn from_inv(ray: &Ray, q: Vec4) -> Self {
         let inv = q.truncate();
         let near = inv * NEAR_SCALE;
         let far = inv * FAR_SCALE;
