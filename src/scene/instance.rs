@@ -20,7 +20,7 @@ use super::transform::Transform;
 use super::Scene;
 use crate::geometry::{Aabb, Hit, Ray};
 use crate::lanes::{Lane, V3};
-use glam::{Vec3, Vec4};
+use glam::{Vec3, Vec3A, Vec4};
 
 /// A mesh stored once: its triangles in the mesh's own space, in a scene of their own
 /// (ids `0..n` in file order, object `g` for the triangles of material group `g`: 0 the
@@ -102,11 +102,30 @@ impl ToObject {
         (o + d.scale(dt), d, dt)
     }
 
-    /// `apply` for one ray.
+    /// `apply` for one ray, its three rows at once: the columns of the rows, each
+    /// component the same operations in the same order, so the same bits.
     #[inline]
     pub fn ray(&self, ray: &Ray) -> (Ray, f32) {
-        let (o, d, dt) = self.apply::<f32>(V3::splat(ray.origin), V3::splat(ray.dir));
-        (Ray::new(o.lane(0), d.lane(0)), dt)
+        let [r0, r1, r2] = self.rows;
+        let column = |f: fn(Vec4) -> f32| Vec3A::new(f(r0), f(r1), f(r2));
+        let c = [
+            column(|r| r.x),
+            column(|r| r.y),
+            column(|r| r.z),
+            column(|r| r.w),
+        ];
+        let (o, d) = (Vec3A::from(ray.origin), Vec3A::from(ray.dir));
+        let linear = |v: Vec3A| (c[0] * v.x + c[1] * v.y) + c[2] * v.z;
+        let moved = linear(o) + c[3];
+        let dir = linear(d);
+        let a = o.abs();
+        let size = ((c[0].abs() * a.x + c[1].abs() * a.y) + c[2].abs() * a.z) + c[3].abs();
+        let error = size * GAMMA4;
+        let p = dir.abs() * error;
+        let reach = (p.x + p.y) + p.z;
+        let q = dir * dir;
+        let dt = reach / ((q.x + q.y) + q.z);
+        (Ray::new((moved + dir * dt).into(), dir.into()), dt)
     }
 }
 
@@ -207,4 +226,41 @@ pub fn outward(min: glam::DVec3, max: glam::DVec3) -> Aabb {
         Vec3::new(down(min.x), down(min.y), down(min.z)),
         Vec3::new(up(max.x), up(max.y), up(max.z)),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn finite() -> impl Strategy<Value = f32> {
+        prop_oneof![-1e3f32..1e3, -1.0f32..1.0, Just(0.0), Just(-0.0)]
+    }
+
+    fn vec4() -> impl Strategy<Value = Vec4> {
+        (finite(), finite(), finite(), finite()).prop_map(|(x, y, z, w)| Vec4::new(x, y, z, w))
+    }
+
+    fn vec3() -> impl Strategy<Value = Vec3> {
+        (finite(), finite(), finite()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+    }
+
+    proptest! {
+        /// One ray's move (columns at once) is the lanes' move (row by row), bit for bit.
+        #[test]
+        fn one_ray_moves_as_the_lanes_do(
+            rows in [vec4(), vec4(), vec4()],
+            origin in vec3(),
+            dir in vec3(),
+        ) {
+            prop_assume!(dir != Vec3::ZERO);
+            let m = ToObject { rows };
+            let (ray, dt) = m.ray(&Ray::new(origin, dir));
+            let (o, d, t) = m.apply::<f32>(V3::splat(origin), V3::splat(dir));
+            let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+            prop_assert_eq!(bits(ray.origin), bits(o.lane(0)));
+            prop_assert_eq!(bits(ray.dir), bits(d.lane(0)));
+            prop_assert_eq!(dt.to_bits(), t.to_bits());
+        }
+    }
 }
