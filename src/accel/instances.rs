@@ -89,21 +89,19 @@ impl Accel {
         cx.stats.nodes += nodes;
     }
 
-    /// Whether an instance's primitive beats the light's own nearest hit on `ray`, for a
-    /// ray that the scene's pools leave lit. A light of many primitives asks for the
-    /// closest hit over both levels instead, as the tree does.
+    /// Whether an instance's primitive beats the light's own nearest hit on `ray`
+    /// (`query`, from a tree over the scene's pools that leaves the ray lit). A light of
+    /// many primitives asks for the closest hit over both levels instead, as the tree
+    /// does.
     #[inline(never)]
-    pub(super) fn instances_occlude(
-        &self,
-        cx: Context<'_>,
-        ray: &Ray,
-        t_min: f32,
-        light: &Light,
-    ) -> bool {
+    pub(super) fn instances_occlude(&self, cx: Context<'_>, ray: &Ray, query: ShadowQuery) -> bool {
         let scene = cx.scene;
-        let Some((t_light, id_light)) = light.nearest_hit(ray, t_min) else {
-            return true;
-        };
+        let ShadowQuery {
+            t_min,
+            t_light,
+            id_light,
+            ..
+        } = query;
         let single = SingleRay::new(ray);
         let mut occluded = false;
         let nodes = self.instances.for_each_single(

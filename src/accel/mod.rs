@@ -254,8 +254,9 @@ impl Accel {
                 .closest_hit(cx, ray, t_min, f32::INFINITY)
                 .is_some_and(|h| h.object == light.object);
         }
-        self.tree.light_visible(cx.reborrow(), ray, t_min, light)
-            && !self.instances_occlude(cx, ray, t_min, light)
+        self.tree
+            .light_query(cx.reborrow(), ray, t_min, light)
+            .is_some_and(|query| !self.instances_occlude(cx, ray, query))
     }
 
     /// Whether a packet's queries test boxes, so its rays need the box constants
@@ -384,6 +385,33 @@ impl Tree {
                 .closest_hit(cx, ray, t_min, f32::INFINITY)
                 .is_some_and(|h| h.object == light.object),
             Tree::Bvh(b) => b.light_visible(cx, ray, t_min, light),
+        }
+    }
+
+    /// `Bvh::light_query` over this tree's scene alone: the light's own nearest hit, if
+    /// nothing of the scene occludes it.
+    #[inline]
+    fn light_query(
+        &self,
+        cx: Context<'_>,
+        ray: &Ray,
+        t_min: f32,
+        light: &Light,
+    ) -> Option<ShadowQuery> {
+        match self {
+            Tree::Linear(l) => {
+                let lit = l
+                    .closest_hit(cx, ray, t_min, f32::INFINITY)
+                    .is_some_and(|h| h.object == light.object);
+                let (t_light, id_light) = light.nearest_hit(ray, t_min).filter(|_| lit)?;
+                Some(ShadowQuery {
+                    t_min,
+                    t_light,
+                    id_light,
+                    object: light.object,
+                })
+            }
+            Tree::Bvh(b) => b.light_query(cx, ray, t_min, light),
         }
     }
 

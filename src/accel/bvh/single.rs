@@ -411,6 +411,20 @@ impl Bvh {
         if light.primitives() > LIGHT_PRIMITIVES_SCANNED {
             return self.nearest_is_light(cx, ray, t_min, light);
         }
+        self.light_query(cx, ray, t_min, light).is_some()
+    }
+
+    /// `light_visible` for a light of at most `LIGHT_PRIMITIVES_SCANNED` primitives, with
+    /// the question it answered: the light's own nearest hit, when nothing of this tree
+    /// occludes it (what an instance level asks next).
+    #[inline(always)]
+    pub fn light_query(
+        &self,
+        cx: Context<'_>,
+        ray: &Ray,
+        t_min: f32,
+        light: &Light,
+    ) -> Option<ShadowQuery> {
         let (mut rq, q) = RayQuery::with_reciprocals(cx, ray);
         let own = match light.shape {
             LightShape::Point { center, radius } => {
@@ -419,16 +433,14 @@ impl Bvh {
             }
             _ => light.nearest_hit_watertight(ray, rq.triangle(), t_min),
         };
-        let Some((t_light, id_light)) = own else {
-            return false;
-        };
+        let (t_light, id_light) = own?;
         let query = ShadowQuery {
             t_min,
             t_light,
             id_light,
             object: light.object,
         };
-        !self.occluded_consts(&mut rq, q, query)
+        (!self.occluded_consts(&mut rq, q, query)).then_some(query)
     }
 
     /// `light_visible` for a light of many primitives (`LIGHT_PRIMITIVES_SCANNED`): is
