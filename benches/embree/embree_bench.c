@@ -257,7 +257,7 @@ int main(int argc, char **argv) {
             continue;
         uint32_t answer = trace(scene, &s);
         double *rate = malloc(passes * sizeof(double));
-        printf("%-8s %s, %lu rays:", s.name, s.width == 1 ? "single" : "8-wide",
+        printf("%-13s %s, %lu rays:", s.name, s.width == 1 ? "single" : "8-wide",
                (unsigned long)nrays);
         for (int k = 0; k < passes; k++) {
             double a = now();

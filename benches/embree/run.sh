@@ -11,7 +11,9 @@
 # tests it beside the tree; Embree gets the mesh alone, each ray ending just short of
 # the light). `big-far` and `big-close`: the camera rays of those two views (800x450,
 # 2 samples a pixel) on the bunny subdivided four times, 1 271 808 triangles, alone
-# (far, they are smaller than a pixel). Each round runs `vs_embree` (ours) then `embree_bench` (Embree) twice on
+# (far, they are smaller than a pixel). Our camera packets run twice: `camera8` through
+# the frustum traversal, `camera8-lanes` through the lane-wise one (a render picks per
+# tile: lane-wise where the frustum's leaves hold few of the lanes). Each round runs `vs_embree` (ours) then `embree_bench` (Embree) twice on
 # each case: with Embree's default intersect context (which says the rays are
 # incoherent) and with EMBREE_COHERENT=1 (RTC_INTERSECT_CONTEXT_FLAG_COHERENT, how
 # Embree is meant to be given camera packets); each prints every pass and the median
@@ -113,7 +115,7 @@ echo
 echo "median over $rounds rounds of each run's median, and their range (Mrays/s, one thread);"
 echo "Embree with its default (incoherent) context, and told the rays are coherent;"
 echo "the ratio is ours over the faster of the two:"
-printf '%-13s %-8s %20s %20s %20s %7s\n' case set ours embree coherent ratio
+printf '%-13s %-13s %20s %20s %20s %7s\n' case set ours embree coherent ratio
 awk '/median/ {
     for (i = 1; i <= NF; i++) if ($i == "median") v = $(i + 1)
     key = $1 " " $3; sub(/;$/, "", v)
@@ -133,6 +135,6 @@ END {
         stats(vals[order[i], "ours"], o); stats(vals[order[i], "embree"], e)
         stats(vals[order[i], "coherent"], c)
         best = e[1] > c[1] ? e[1] : c[1]
-        printf "%-13s %-8s %6.1f (%4.1f-%4.1f) %6.1f (%4.1f-%4.1f) %6.1f (%4.1f-%4.1f) %6.2fx\n", p[1], p[2], o[1], o[2], o[3], e[1], e[2], e[3], c[1], c[2], c[3], o[1] / best
+        printf "%-13s %-13s %6.1f (%4.1f-%4.1f) %6.1f (%4.1f-%4.1f) %6.1f (%4.1f-%4.1f) %6.2fx\n", p[1], p[2], o[1], o[2], o[3], e[1], e[2], e[3], c[1], c[2], c[3], o[1] / best
     }
 }' "$log"

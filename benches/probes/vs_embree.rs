@@ -24,7 +24,11 @@
 //! - `camera1`: the camera rays one at a time (`Accel::closest_hit`), in the order of
 //!   `benches/bvh.rs` (pixel by pixel, the samples of a pixel together);
 //! - `camera8`: the camera rays in 8-wide packets (4x2 pixels, one sample index), in the
-//!   order of `benches/packets.rs` (`closest_hit_packet`, rays already in lanes);
+//!   order of `benches/packets.rs` (`closest_hit_packet`, rays already in lanes), through
+//!   the frustum traversal;
+//! - `camera8-lanes`: the same packets through the lane-wise traversal, which a render
+//!   takes in the tiles where the frustum's leaves hold few of the lanes
+//!   (`render::frustum_pays`: triangles smaller than a pixel);
 //! - `shadow8` (when the rays' scene is `bunny`): the shadow rays from those packets' hits
 //!   to light 0, as `benches/packets.rs` makes them (`light_visible_packet`); for Embree
 //!   each ends just short of the light's own nearest hit (`Light::nearest_hit`).
@@ -39,6 +43,7 @@
 mod common;
 
 use common::{camera_packets, camera_rays, in_lanes, shadow_packets, LanePacket, Packet};
+use raytracer::accel::cull::Cull;
 use raytracer::accel::packet::RayPacket;
 use raytracer::accel::{Accel, AccelKind, Context, TraversalStats};
 use raytracer::geometry::Ray;
@@ -56,6 +61,8 @@ struct Set {
     answer: u32,
     /// The same rays as we trace them.
     rays: Rays,
+    /// Packets take the lane-wise traversal, not the frustum (`Cull::frustum`).
+    lane_wise: bool,
 }
 
 enum Rays {
@@ -78,7 +85,13 @@ fn trace(scene: &Scene, accel: &Accel, set: &Set) -> u32 {
         }
         Rays::Lanes(packets) => {
             for lp in packets {
-                let p = RayPacket::<f32x8>::from_lanes(lp.origin, lp.dir, lp.active);
+                let mut p = RayPacket::<f32x8>::from_lanes(lp.origin, lp.dir, lp.active);
+                if set.lane_wise {
+                    p.set_cull(Cull {
+                        frustum: false,
+                        ..Cull::ALL
+                    });
+                }
                 if set.occlusion {
                     let light = &scene.lights[0];
                     let v = accel.light_visible_packet(
@@ -152,6 +165,7 @@ fn main() -> std::io::Result<()> {
                 .map(|r| (1, vec![(*r, f32::INFINITY)]))
                 .collect(),
             rays: Rays::Single(single),
+            lane_wise: false,
         },
         Set {
             name: "camera8",
@@ -160,6 +174,16 @@ fn main() -> std::io::Result<()> {
             answer: 0,
             packets: p8.iter().map(|p| with_t(p, &|_| f32::INFINITY)).collect(),
             rays: Rays::Lanes(in_lanes(&p8)),
+            lane_wise: false,
+        },
+        Set {
+            name: "camera8-lanes",
+            occlusion: false,
+            width: 8,
+            answer: 0,
+            packets: p8.iter().map(|p| with_t(p, &|_| f32::INFINITY)).collect(),
+            rays: Rays::Lanes(in_lanes(&p8)),
+            lane_wise: true,
         },
     ];
     // The shadow rays of `bunny`, traced towards the traced scene's first light (the same
@@ -177,6 +201,7 @@ fn main() -> std::io::Result<()> {
             answer: 0,
             packets: s8.iter().map(|p| with_t(p, &t_far)).collect(),
             rays: Rays::Lanes(in_lanes(&s8)),
+            lane_wise: false,
         });
     }
     for s in &mut sets {
@@ -214,7 +239,7 @@ fn main() -> std::io::Result<()> {
             0.5 * (rate[m - 1] + rate[m])
         };
         println!(
-            "{:<8} {}, {rays} rays: {}; median {median:.1} Mrays/s; {} {}",
+            "{:<13} {}, {rays} rays: {}; median {median:.1} Mrays/s; {} {}",
             s.name,
             if s.width == 1 { "single" } else { "8-wide" },
             each.join(" "),
