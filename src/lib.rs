@@ -49,7 +49,7 @@ mod renderer;
 mod settings;
 
 pub use accel::AccelKind;
-pub use adaptive::{Adaptive, Outcome, PassProgress, Stop};
+pub use adaptive::{Adaptive, Outcome, PassProgress, Stop, FIRST_PASS_SPP};
 pub use camera::CameraPose;
 #[doc(hidden)]
 pub use error::one_line;

@@ -218,16 +218,19 @@ fn adaptive_summary<'a>(
 
 /// Against the independent sampler at the scene's own samples a pixel: its relMSE and
 /// time (interpolated between the sweep's points), and how much sooner each adaptive
-/// series reaches that relMSE.
+/// series reaches that relMSE; with the samples a pixel each series takes for it
+/// (uniform Sobol, and the adaptive series' mean, at least `FIRST_PASS_SPP`), which bound
+/// how much sooner any run can be.
 pub(super) fn own_settings(points: &[Point], own_spp: u32) -> String {
     let mut s = String::new();
     for w in dedup(points.iter().map(|p| p.packet_width)) {
-        let base: Vec<&Point> = points
-            .iter()
-            .filter(|p| {
-                p.packet_width == w && p.sampler == SamplerKind::Independent && p.adaptive.is_none()
-            })
-            .collect();
+        let uniform = |k: SamplerKind| -> Vec<&Point> {
+            points
+                .iter()
+                .filter(|p| p.packet_width == w && p.sampler == k && p.adaptive.is_none())
+                .collect()
+        };
+        let base = uniform(SamplerKind::Independent);
         let at = |f: fn(&Point) -> f64| {
             let xy: Vec<(f64, f64)> = base.iter().map(|p| (p.spp as f64, f(p))).collect();
             interpolate_log(&xy, own_spp as f64).map(f64::exp)
@@ -235,15 +238,30 @@ pub(super) fn own_settings(points: &[Point], own_spp: u32) -> String {
         let (Some(error), Some(time)) = (at(|p| p.errors.rel_mse), at(|p| p.seconds)) else {
             continue;
         };
+        // The samples a pixel a series takes to that relMSE, where it reaches it.
+        let spp_at = |curve: Vec<(f64, f64)>| {
+            let mut curve = curve;
+            curve.sort_by(|a, b| a.0.total_cmp(&b.0));
+            interpolate_log(&curve, error).map(f64::exp)
+        };
+        let sobol_spp = spp_at(
+            uniform(SamplerKind::Sobol)
+                .iter()
+                .map(|p| (p.errors.rel_mse, p.spp as f64))
+                .collect(),
+        );
         for k in dedup(
             points
                 .iter()
                 .filter(|p| p.packet_width == w && p.adaptive.is_some())
                 .map(|p| p.sampler),
         ) {
-            let mut curve: Vec<(f64, f64)> = points
+            let series: Vec<&Point> = points
                 .iter()
                 .filter(|p| p.packet_width == w && p.sampler == k && p.adaptive.is_some())
+                .collect();
+            let mut curve: Vec<(f64, f64)> = series
+                .iter()
                 .map(|p| (p.errors.rel_mse, p.seconds))
                 .collect();
             curve.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -256,12 +274,23 @@ pub(super) fn own_settings(points: &[Point], own_spp: u32) -> String {
                 ),
                 None => "not within the sweep's targets".to_string(),
             };
+            let adaptive_spp = spp_at(
+                series
+                    .iter()
+                    .filter_map(|p| Some((p.errors.rel_mse, p.adaptive?.spp_mean)))
+                    .collect(),
+            );
+            let spp = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.1}"));
             let _ = writeln!(
                 s,
-                "width {w} independent at the scene's own {own_spp} spp: relative RMSE {:.3}% in {:.4} s; {} reaches it {sooner}",
+                "width {w} independent at the scene's own {own_spp} spp: relative RMSE {:.3}% in {:.4} s; {} reaches it {sooner}; spp for that error: uniform sobol {}, {} {} (at least {})",
                 error.sqrt() * 100.0,
                 time,
-                series_name(k, true)
+                series_name(k, true),
+                spp(sobol_spp),
+                series_name(k, true),
+                spp(adaptive_spp),
+                raytracer::FIRST_PASS_SPP
             );
         }
     }
