@@ -290,20 +290,20 @@ fn render_rects_adaptive(
     let kind = settings.sampler;
     let max = adaptive.max_spp;
     let target = adaptive.target_rel_mse();
-    // Pass 0: every tile to FIRST_PASS_SPP in one sweep over its pixels, with the sums
-    // at 1 and 2 samples for the estimates at 2 and 4.
-    // The marks' buffers are a worker's, not a tile's: the marks overwrite them whole.
-    let buffers = || vec![Vec3::ZERO; 2 * (TILE * TILE) as usize];
+    // Pass 0: every tile to FIRST_PASS_SPP in one sweep over its pixels, with the terms
+    // of its estimates at 2 and 4 samples taken on the way. The terms' buffers are a
+    // worker's, not a tile's: the marks overwrite them whole.
+    let buffers = || vec![0.0f32; 2 * (TILE * TILE) as usize];
     tiles.par_iter_mut().for_each_init(buffers, |buffers, t| {
         let len = t.sums.len();
-        let (one, two) = buffers.split_at_mut(len);
-        let two = &mut two[..len];
-        let mut marks = [Mark { n: 1, sums: one }, Mark { n: 2, sums: two }];
+        let (at2, at4) = buffers.split_at_mut(len);
+        let at4 = &mut at4[..len];
+        let mut marks = [Mark { n: 2, terms: at2 }, Mark { n: 4, terms: at4 }];
         let (pw, tile) = (settings.packet_width, t.tile);
         let first = 0..FIRST_PASS_SPP;
         let counts = accumulate_tile_marked(tracer, pw, tile, first, &mut t.sums, &mut marks);
-        let [one, two] = marks.map(|m| &*m.sums);
-        t.first_pass(one, two, &counts, kind);
+        let [at2, at4] = marks.map(|m| &*m.terms);
+        t.first_pass(at2, at4, &counts, kind);
         on_tile();
     });
     let pixels: u64 = tiles.iter().map(|t| t.tile.pixel_count()).sum();
@@ -450,20 +450,47 @@ pub(crate) fn accumulate_tile(
     accumulate_tile_marked(tracer, packet_width, tile, samples, sums, &mut [])
 }
 
-/// A copy of a tile's sums when its pixels reach `n` samples, taken on the way
-/// (`accumulate_tile_marked`): the adaptive render's estimate compares a pixel's sum
-/// with that of its first half.
+/// The terms of an adaptive estimate at `n` samples, taken on the way
+/// (`accumulate_tile_marked`): each pixel's `adaptive::pixel_term` of its sum at `n`
+/// against its sum at `n / 2`.
 pub(crate) struct Mark<'a> {
-    /// The sample count at which to copy.
+    /// The sample count of the estimate (even; the samples start at 0).
     pub n: u32,
-    /// The sums at `n`, laid out as the tile's `sums`.
-    pub sums: &'a mut [Vec3],
+    /// The pixels' terms, laid out as the tile's `sums`.
+    pub terms: &'a mut [f32],
 }
 
-/// [`accumulate_tile`], copying the sums into each of `marks` when the pixels reach its
-/// sample count: one pass over the tile where separate calls would set up each packet
-/// and the tile's camera cone again (adaptive pass 0 as three calls: 8.3M instructions
-/// more than one on `quads` at 256 px, 12% of its render at 4 samples).
+/// The most marks of one call.
+const MAX_MARKS: usize = 2;
+
+/// After sample `s` of a packet's pixels (`active` lanes of `sum`, lane k at
+/// `terms[at(k)]`): keep the sums a mark compares with, or write its terms.
+#[inline(always)]
+fn note_marks<L: Lane>(
+    marks: &mut [Mark],
+    s: u32,
+    sum: V3<L>,
+    halves: &mut [V3<L>; MAX_MARKS],
+    active: u32,
+    at: impl Fn(usize) -> usize,
+) {
+    for (mark, half) in marks.iter_mut().zip(halves.iter_mut()) {
+        if s + 1 == mark.n / 2 {
+            *half = sum;
+        } else if s + 1 == mark.n {
+            let q = adaptive::pixel_term(sum, *half, mark.n, mark.n / 2);
+            for k in set_lanes(active) {
+                mark.terms[at(k)] = q.lane(k);
+            }
+        }
+    }
+}
+
+/// [`accumulate_tile`], writing the terms of each of `marks` (at most `MAX_MARKS`, the
+/// samples from 0) when the pixels reach its sample count: one pass over the tile where
+/// separate calls would set up each packet and the tile's camera cone again (adaptive
+/// pass 0 as three calls: 8.3M instructions more than one on `quads` at 256 px, 12% of
+/// its render at 4 samples).
 pub(crate) fn accumulate_tile_marked(
     tracer: &Tracer,
     packet_width: PacketWidth,
@@ -472,6 +499,7 @@ pub(crate) fn accumulate_tile_marked(
     sums: &mut [Vec3],
     marks: &mut [Mark],
 ) -> RayCounts {
+    debug_assert!(marks.len() <= MAX_MARKS && (marks.is_empty() || samples.start == 0));
     match packet_width {
         PacketWidth::Sixteen if tracer.regroups::<F32x16>() => {
             accumulate_tile_regrouped::<F32x16>(tracer, tile, samples, sums, marks)
@@ -508,13 +536,13 @@ fn accumulate_tile_scalar(
         for (x, sum) in (tile.x0..tile.x1).zip(row.iter_mut()) {
             let hashes = tracer.pixel_hashes::<f32>(x, y);
             let at = (y - tile.y0) as usize * stride + (x - tile.x0) as usize;
+            let mut halves = [V3::<f32>::new(0.0, 0.0, 0.0); MAX_MARKS];
             for s in samples.clone() {
                 *sum += tracer
                     .sample_pixels::<f32>(x, y, &hashes, 1, s, cull, &mut counts)
                     .lane(0);
-                for mark in marks.iter_mut().filter(|m| m.n == s + 1) {
-                    mark.sums[at] = *sum;
-                }
+                let lanes = V3::new(sum.x, sum.y, sum.z);
+                note_marks(marks, s, lanes, &mut halves, 1, |_| at);
             }
         }
     }
@@ -562,13 +590,10 @@ fn accumulate_tile_packets<L: Lane>(
                     Vec3::ZERO
                 }
             });
+            let mut halves = [V3::<L>::splat(Vec3::ZERO); MAX_MARKS];
             for s in samples.clone() {
                 lanes = lanes + tracer.sample_packet::<L>(px, py, active, s, cull, &mut counts);
-                for mark in marks.iter_mut().filter(|m| m.n == s + 1) {
-                    for k in set_lanes(active) {
-                        mark.sums[at(k as u32)] = lanes.lane(k);
-                    }
-                }
+                note_marks(marks, s, lanes, &mut halves, active, |k| at(k as u32));
             }
             if !frustum_decided {
                 let t = &counts.traversal;
@@ -658,16 +683,17 @@ fn accumulate_tile_regrouped<L: Lane>(
     // The first sample decides whether the others regroup (`Regrouped::pays`); they are
     // added after it, so each pixel still sums its samples in sample order.
     let mut regroup = true;
+    let zero = [V3::<L>::splat(Vec3::ZERO); MAX_MARKS];
+    let mut halves = vec![zero; if marks.is_empty() { 0 } else { packets.len() }];
     for s in samples.clone() {
         if !regroup {
-            for (p, sum) in packets.iter().zip(lanes.iter_mut()) {
+            for (i, (p, sum)) in packets.iter().zip(lanes.iter_mut()).enumerate() {
                 for s in s..samples.end {
                     let (x, y, c) = (p.x0, p.y0, &mut counts);
                     *sum = *sum + tracer.sample_pixels(x, y, &p.pixels, p.active, s, cull, c);
-                    for mark in marks.iter_mut().filter(|m| m.n == s + 1) {
-                        for k in set_lanes(p.active) {
-                            mark.sums[at(p.x0, p.y0, k)] = sum.lane(k);
-                        }
+                    if !marks.is_empty() {
+                        let at = |k| at(p.x0, p.y0, k);
+                        note_marks(marks, s, *sum, &mut halves[i], p.active, at);
                     }
                 }
             }
@@ -677,11 +703,10 @@ fn accumulate_tile_regrouped<L: Lane>(
         for (sum, c) in lanes.iter_mut().zip(&colors) {
             *sum = *sum + *c;
         }
-        for mark in marks.iter_mut().filter(|m| m.n == s + 1) {
-            for (p, sum) in packets.iter().zip(&lanes) {
-                for k in set_lanes(p.active) {
-                    mark.sums[at(p.x0, p.y0, k)] = sum.lane(k);
-                }
+        if !marks.is_empty() {
+            for ((p, sum), halves) in packets.iter().zip(&lanes).zip(&mut halves) {
+                let at = |k| at(p.x0, p.y0, k);
+                note_marks(marks, s, *sum, halves, p.active, at);
             }
         }
         regroup = saved.pays();
@@ -745,12 +770,13 @@ mod tests {
         assert_eq!(bits(&film), bits(&whole.film.pixels));
     }
 
-    /// The sums an adaptive pass 0 copies on the way (`accumulate_tile_marked`) have the
-    /// bits of separate renders of 1 and 2 samples, at every packet width, for a tile
-    /// inside the frame and one cut by its edge, through the packets' path (`cornell`)
-    /// and the regrouped one (a scene of path-traced surfaces alone).
+    /// The terms an adaptive pass 0 takes on the way (`accumulate_tile_marked`) have the
+    /// bits of `pixel_term` over the sums of separate renders of 1, 2 and 4 samples, at
+    /// every packet width, for a tile inside the frame and one cut by its edge, through
+    /// the packets' path (`cornell`) and the regrouped one (a scene of path-traced
+    /// surfaces alone); and the sums at 4 are those of the separate render.
     #[test]
-    fn marks_hold_the_sums_of_fewer_samples() {
+    fn marks_hold_the_terms_of_fewer_samples() {
         let glass = concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/benches/corpus/glass-cornell.toml"
@@ -786,24 +812,39 @@ mod tests {
                     let alone = |n: u32| {
                         let mut sums = vec![Vec3::ZERO; len];
                         accumulate_tile(&tracer, width, tile, 0..n, &mut sums);
-                        bits(&sums)
+                        sums
                     };
-                    let (mut one, mut two) = (vec![Vec3::NAN; len], vec![Vec3::NAN; len]);
-                    let mut four = vec![Vec3::ZERO; len];
+                    let (one, two, four) = (alone(1), alone(2), alone(4));
+                    let terms = |sums: &[Vec3], half: &[Vec3], n| -> Vec<u32> {
+                        let v3 = |v: Vec3| V3::new(v.x, v.y, v.z);
+                        sums.iter()
+                            .zip(half)
+                            .map(|(s, h)| {
+                                adaptive::pixel_term::<f32>(v3(*s), v3(*h), n, n / 2).to_bits()
+                            })
+                            .collect()
+                    };
+                    let (mut at2, mut at4) = (vec![f32::NAN; len], vec![f32::NAN; len]);
+                    let mut sums = vec![Vec3::ZERO; len];
                     let mut marks = [
                         Mark {
-                            n: 1,
-                            sums: &mut one,
+                            n: 2,
+                            terms: &mut at2,
                         },
                         Mark {
-                            n: 2,
-                            sums: &mut two,
+                            n: 4,
+                            terms: &mut at4,
                         },
                     ];
-                    accumulate_tile_marked(&tracer, width, tile, 0..4, &mut four, &mut marks);
-                    assert_eq!(bits(&one), alone(1), "{name} {width:?} {tile:?}");
-                    assert_eq!(bits(&two), alone(2), "{name} {width:?} {tile:?}");
-                    assert_eq!(bits(&four), alone(4), "{name} {width:?} {tile:?}");
+                    accumulate_tile_marked(&tracer, width, tile, 0..4, &mut sums, &mut marks);
+                    let to_bits =
+                        |t: &[f32]| -> Vec<u32> { t.iter().map(|t| t.to_bits()).collect() };
+                    let what = format!("{name} {width:?} {tile:?}");
+                    assert_eq!(to_bits(&at2), terms(&two, &one, 2), "{what}");
+                    assert_eq!(to_bits(&at4), terms(&four, &two, 4), "{what}");
+                    assert_eq!(bits(&sums), bits(&four), "{what}");
+                    // The terms are not all zero: the test sees the estimate.
+                    assert!(at4.iter().any(|&q| q > 0.0), "{what}");
                 }
             }
             assert_eq!(regrouped, name == glass, "{name}: the path under test");
