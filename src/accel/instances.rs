@@ -150,19 +150,33 @@ impl Accel {
                     return true;
                 }
                 let (tree, proto) = self.prototype(scene, inst);
-                let (q, dt) = moved_packet(p, inst, tree, lanes);
-                // Bounded by each lane's best hit so far: as for one ray, a hit at
-                // t + dt ≤ bound has t ≤ bound.
-                let within = PacketHits::within(lanes, t.get());
-                let cx = Context::new(proto, cx.stats);
-                let found = tree.closest_hit_packet_within(cx, &q, t_min, within);
-                for k in set_lanes(found.found & lanes) {
-                    let Some(hit) = found.hit(k) else { continue };
-                    let hit = inst.world_hit(hit, dt.lane(k));
+                let mut keep = |k: usize, hit: Hit| {
                     let mut best = hits.hit(k);
                     keep_closest(&mut best, hit);
                     if best == Some(hit) {
                         hits.set(k, hit.t, Some(hit));
+                    }
+                };
+                if lanes.count_ones() <= RayPacket::<L>::fallback() {
+                    // A lone lane as one ray (`instances_closest`'s steps, the same
+                    // bits): a packet's set-up in the mesh's space costs more.
+                    for k in set_lanes(lanes) {
+                        let (moved, dt) = moved(inst, &p.ray(k));
+                        let cx = Context::new(proto, &mut *cx.stats);
+                        if let Some(hit) = tree.closest_hit(cx, &moved, t_min, t.get().lane(k)) {
+                            keep(k, inst.world_hit(hit, dt));
+                        }
+                    }
+                } else {
+                    let (q, dt) = moved_packet(p, inst, tree, lanes);
+                    // Bounded by each lane's best hit so far: as for one ray, a hit at
+                    // t + dt ≤ bound has t ≤ bound.
+                    let within = PacketHits::within(lanes, t.get());
+                    let cx = Context::new(proto, &mut *cx.stats);
+                    let found = tree.closest_hit_packet_within(cx, &q, t_min, within);
+                    for k in set_lanes(found.found & lanes) {
+                        let Some(hit) = found.hit(k) else { continue };
+                        keep(k, inst.world_hit(hit, dt.lane(k)));
                     }
                 }
                 t.set(hits.t);
@@ -213,7 +227,18 @@ impl Accel {
                 let inst = &scene.instances[i as usize];
                 let lanes = lanes & !done.get();
                 let (_, enter) = entering(p, boxes, &inst.bounds, t_min, t_light, lanes);
-                if enter != 0 {
+                if enter != 0 && enter.count_ones() <= RayPacket::<L>::fallback() {
+                    // A lone lane as one ray (`instances_occlude`'s steps, the same bits).
+                    let (tree, proto) = self.prototype(scene, inst);
+                    for k in set_lanes(enter) {
+                        let (moved, dt) = moved(inst, &p.ray(k));
+                        let id = id_light.lane(k).to_bits();
+                        let query = query_in(inst, t_min, t_light.lane(k), id, dt);
+                        if tree.occluded(Context::new(proto, &mut *cx.stats), &moved, query) {
+                            done.set(done.get() | 1 << k);
+                        }
+                    }
+                } else if enter != 0 {
                     let (tree, proto) = self.prototype(scene, inst);
                     let (q, dt) = moved_packet(p, inst, tree, enter);
                     // `query_in` lane-wise: the same subtraction on every lane.
