@@ -297,7 +297,8 @@ impl<'a> Tracer<'a> {
     #[inline]
     pub fn closest_hit(&self, ray: &Ray, counts: &mut RayCounts) -> Option<Hit> {
         let cx = Context::new(self.scene, &mut counts.traversal);
-        self.accel.closest_hit(cx, ray, T_MIN, f32::INFINITY)
+        self.accel
+            .closest_hit_inlined(cx, ray, T_MIN, f32::INFINITY)
     }
 
     /// Position, facing normals and side of a hit (`surface_lanes`' rules).
