@@ -232,7 +232,7 @@ fn the_estimate_is_within_a_quarter_of_the_true_error() {
         ("cornell", SamplerKind::Independent, 0.05),
         ("cornell", SamplerKind::Sobol, 0.05),
         ("spheres", SamplerKind::Independent, 0.05),
-        ("mixed", SamplerKind::Sobol, 0.1),
+        ("mixed", SamplerKind::Sobol, 0.05),
     ] {
         let r = renderer(scene, 48, Some(1024));
         let reference: Film = pool(2).install(|| r.render(&RenderSettings::new(77)).unwrap());
