@@ -418,7 +418,7 @@ fn sum_counts(mut a: RayCounts, b: RayCounts) -> RayCounts {
 }
 
 /// Render the pixels of `tile` into `rows` (`rows[y - y0][x - x0]`): each pixel the mean
-/// of its `spp` samples.
+/// of its `spp` samples, summed in lanes from zero and written once.
 fn render_tile(
     tracer: &Tracer,
     packet_width: PacketWidth,
@@ -426,15 +426,11 @@ fn render_tile(
     rows: &mut [&mut [Vec3]],
 ) -> RayCounts {
     let spp = tracer.scene.spp;
-    let mut sums = [Vec3::ZERO; (TILE * TILE) as usize];
-    let counts = accumulate_tile(tracer, packet_width, tile, 0..spp, &mut sums);
-    let stride = tile.width() as usize;
-    for (row, line) in rows.iter_mut().zip(sums.chunks_exact(stride)) {
-        for (pixel, sum) in row.iter_mut().zip(line) {
-            *pixel = *sum / spp as f32;
-        }
-    }
-    counts
+    let mut means = TileOut::Means {
+        rows,
+        spp: spp as f32,
+    };
+    tile_sums(tracer, packet_width, tile, 0..spp, &mut means)
 }
 
 /// Add the samples `samples` of each pixel of `tile` (at most `TILE` x `TILE`), in
@@ -463,6 +459,29 @@ pub(crate) struct Mark<'a> {
 /// The most marks of one call.
 const MAX_MARKS: usize = 2;
 
+/// [`accumulate_tile`], writing the terms of each of `marks` (at most `MAX_MARKS`, the
+/// samples from 0) when the pixels reach its sample count: one pass over the tile where
+/// separate calls would set up each packet and the tile's camera cone again (adaptive
+/// pass 0 as three calls: 8.3M instructions more than one on `quads` at 256 px, 12% of
+/// its render at 4 samples).
+pub(crate) fn accumulate_tile_marked(
+    tracer: &Tracer,
+    packet_width: PacketWidth,
+    tile: Rect,
+    samples: std::ops::Range<u32>,
+    sums: &mut [Vec3],
+    marks: &mut [Mark],
+) -> RayCounts {
+    debug_assert!(marks.len() <= MAX_MARKS && (marks.is_empty() || samples.start == 0));
+    let stride = tile.width() as usize;
+    let mut out = TileOut::Sums {
+        sums,
+        stride,
+        marks,
+    };
+    tile_sums(tracer, packet_width, tile, samples, &mut out)
+}
+
 /// After sample `s` of a packet's pixels (`active` lanes of `sum`, lane k at
 /// `terms[at(k)]`): keep the sums a mark compares with, or write its terms.
 #[inline(always)]
@@ -486,43 +505,152 @@ fn note_marks<L: Lane>(
     }
 }
 
-/// [`accumulate_tile`], writing the terms of each of `marks` (at most `MAX_MARKS`, the
-/// samples from 0) when the pixels reach its sample count: one pass over the tile where
-/// separate calls would set up each packet and the tile's camera cone again (adaptive
-/// pass 0 as three calls: 8.3M instructions more than one on `quads` at 256 px, 12% of
-/// its render at 4 samples).
-pub(crate) fn accumulate_tile_marked(
+/// Where the sums of a tile's pixels start and where they go, pixel (dx, dy) counted
+/// from the tile's corner: a render of `spp` samples starts them at zero and writes the
+/// means into its output (no tile buffer to zero, read into lanes and write back); an
+/// adaptive pass adds to the sums it keeps and takes its marks on the way. One type for
+/// both, so that the tile's loop is compiled once a width (an instantiation each, the
+/// compiler no longer inlined the camera packet's trace into them: `quads` 4.8% more
+/// render instructions 8 wide, 6% scalar).
+enum TileOut<'a, 'b, 'c> {
+    /// The tile's rows of the output (`rows[dy][dx]`), each pixel the mean of its `spp`
+    /// samples.
+    Means {
+        rows: &'a mut [&'b mut [Vec3]],
+        spp: f32,
+    },
+    /// The tile's sums (`stride` a row) and the marks of an adaptive pass 0.
+    Sums {
+        sums: &'a mut [Vec3],
+        stride: usize,
+        marks: &'a mut [Mark<'c>],
+    },
+}
+
+impl TileOut<'_, '_, '_> {
+    /// Whether `note` does anything.
+    #[inline(always)]
+    fn marked(&self) -> bool {
+        matches!(self, TileOut::Sums { marks, .. } if !marks.is_empty())
+    }
+
+    /// The sums a packet's lanes start from (`active` lanes, lane k pixel `at(k)`).
+    #[inline(always)]
+    fn start<L: Lane>(&self, active: u32, at: impl Fn(usize) -> (u32, u32)) -> V3<L> {
+        match self {
+            TileOut::Means { .. } => V3::splat(Vec3::ZERO),
+            TileOut::Sums { sums, stride, .. } => V3::from_fn(|k| {
+                if active >> k & 1 != 0 {
+                    let (dx, dy) = at(k);
+                    sums[dy as usize * stride + dx as usize]
+                } else {
+                    Vec3::ZERO
+                }
+            }),
+        }
+    }
+
+    /// After sample `s` of a packet's pixels (`active` lanes of `sum`, lane k pixel
+    /// `at(k)`): keep the sums a mark compares with, or write its terms.
+    #[inline(always)]
+    fn note<L: Lane>(
+        &mut self,
+        s: u32,
+        sum: V3<L>,
+        halves: &mut [V3<L>; MAX_MARKS],
+        active: u32,
+        at: impl Fn(usize) -> (u32, u32),
+    ) {
+        if let TileOut::Sums { stride, marks, .. } = self {
+            let stride = *stride;
+            note_marks(marks, s, sum, halves, active, |k| {
+                let (dx, dy) = at(k);
+                dy as usize * stride + dx as usize
+            });
+        }
+    }
+
+    /// A packet's sums after the samples (`active` lanes, lane k pixel `at(k)`).
+    #[inline(always)]
+    fn finish<L: Lane>(&mut self, sum: V3<L>, active: u32, at: impl Fn(usize) -> (u32, u32)) {
+        match self {
+            TileOut::Means { rows, spp } => {
+                let n = L::splat(*spp);
+                let mean = V3::new(sum.x / n, sum.y / n, sum.z / n);
+                for k in 0..L::WIDTH {
+                    if active >> k & 1 != 0 {
+                        let (dx, dy) = at(k);
+                        rows[dy as usize][dx as usize] = mean.lane(k);
+                    }
+                }
+            }
+            TileOut::Sums { sums, stride, .. } => {
+                for k in 0..L::WIDTH {
+                    if active >> k & 1 != 0 {
+                        let (dx, dy) = at(k);
+                        sums[dy as usize * *stride + dx as usize] = sum.lane(k);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Add the samples `samples` of each pixel of `tile`, in sample order, to the sums `out`
+/// starts them from, and hand `out` the sums.
+fn tile_sums(
     tracer: &Tracer,
     packet_width: PacketWidth,
     tile: Rect,
     samples: std::ops::Range<u32>,
-    sums: &mut [Vec3],
-    marks: &mut [Mark],
+    out: &mut TileOut,
 ) -> RayCounts {
-    debug_assert!(marks.len() <= MAX_MARKS && (marks.is_empty() || samples.start == 0));
     match packet_width {
         PacketWidth::Sixteen if tracer.regroups::<F32x16>() => {
-            accumulate_tile_regrouped::<F32x16>(tracer, tile, samples, sums, marks)
+            accumulate_tile_regrouped::<F32x16>(tracer, tile, samples, out)
         }
         PacketWidth::Eight if tracer.regroups::<f32x8>() => {
-            accumulate_tile_regrouped::<f32x8>(tracer, tile, samples, sums, marks)
+            accumulate_tile_regrouped::<f32x8>(tracer, tile, samples, out)
         }
         PacketWidth::Four if tracer.regroups::<Vec4>() => {
-            accumulate_tile_regrouped::<Vec4>(tracer, tile, samples, sums, marks)
+            accumulate_tile_regrouped::<Vec4>(tracer, tile, samples, out)
         }
-        PacketWidth::Sixteen => {
-            accumulate_tile_packets::<F32x16>(tracer, tile, samples, sums, marks)
-        }
-        PacketWidth::Eight => accumulate_tile_packets::<f32x8>(tracer, tile, samples, sums, marks),
-        PacketWidth::Four => accumulate_tile_packets::<Vec4>(tracer, tile, samples, sums, marks),
-        PacketWidth::Scalar => accumulate_tile_scalar(tracer, tile, samples, sums, marks),
+        PacketWidth::Sixteen => accumulate_tile_packets::<F32x16>(tracer, tile, samples, out),
+        PacketWidth::Eight => accumulate_tile_packets::<f32x8>(tracer, tile, samples, out),
+        PacketWidth::Four => accumulate_tile_packets::<Vec4>(tracer, tile, samples, out),
+        PacketWidth::Scalar => accumulate_tile_scalar(tracer, tile, samples, out),
     }
 }
 
 /// A tile one ray at a time (the scalar reference): `sample_pixels` at `f32`, with the
 /// tile's camera cone, so a tile whose cone meets nothing makes no ray, as the packets'
-/// tiles do.
+/// tiles do. A render of `spp` samples sums into a tile buffer too: the sums in lanes
+/// of `TileOut` cost its one inlined body 1% more instructions (`quads`, `spheres`).
 fn accumulate_tile_scalar(
+    tracer: &Tracer,
+    tile: Rect,
+    samples: std::ops::Range<u32>,
+    out: &mut TileOut,
+) -> RayCounts {
+    match out {
+        TileOut::Sums { sums, marks, .. } => scalar_sums(tracer, tile, samples, sums, marks),
+        TileOut::Means { rows, spp } => {
+            let mut sums = [Vec3::ZERO; (TILE * TILE) as usize];
+            let counts = scalar_sums(tracer, tile, samples, &mut sums, &mut []);
+            let stride = tile.width() as usize;
+            for (row, line) in rows.iter_mut().zip(sums.chunks_exact(stride)) {
+                for (pixel, sum) in row.iter_mut().zip(line) {
+                    *pixel = *sum / *spp;
+                }
+            }
+            counts
+        }
+    }
+}
+
+/// `accumulate_tile_scalar` into the sums `sums` (`tile.width()` a row), with `marks`.
+#[inline(never)]
+fn scalar_sums(
     tracer: &Tracer,
     tile: Rect,
     samples: std::ops::Range<u32>,
@@ -555,12 +683,10 @@ fn accumulate_tile_packets<L: Lane>(
     tracer: &Tracer,
     tile: Rect,
     samples: std::ops::Range<u32>,
-    sums: &mut [Vec3],
-    marks: &mut [Mark],
+    out: &mut TileOut,
 ) -> RayCounts {
     let Rect { x0, y0, x1, y1 } = tile;
     let (fw, fh) = footprint(L::WIDTH);
-    let stride = tile.width() as usize;
     let taken = samples.len() as u64;
     let mut counts = RayCounts::default();
     // What the tile's camera rays may hit (the packets' footprints may reach past the
@@ -571,7 +697,10 @@ fn accumulate_tile_packets<L: Lane>(
     let mut frustum_decided = false;
     for py in (y0..y1).step_by(fh as usize) {
         for px in (x0..x1).step_by(fw as usize) {
-            let seen = counts.traversal;
+            let seen = (
+                counts.traversal.frustum_leaves,
+                counts.traversal.frustum_leaf_lanes,
+            );
             let mut active = 0u32;
             for k in 0..L::WIDTH as u32 {
                 let (x, y) = (px + k % fw, py + k / fw);
@@ -579,38 +708,25 @@ fn accumulate_tile_packets<L: Lane>(
                     active |= 1 << k;
                 }
             }
-            let at = |k: u32| {
-                let (x, y) = (px + k % fw, py + k / fw);
-                (y - y0) as usize * stride + (x - x0) as usize
-            };
-            let mut lanes = V3::<L>::from_fn(|k| {
-                if active >> k & 1 != 0 {
-                    sums[at(k as u32)]
-                } else {
-                    Vec3::ZERO
-                }
-            });
+            let at = |k: usize| (px - x0 + k as u32 % fw, py - y0 + k as u32 / fw);
+            let mut lanes = out.start::<L>(active, at);
             let mut halves = [V3::<L>::splat(Vec3::ZERO); MAX_MARKS];
             for s in samples.clone() {
                 lanes = lanes + tracer.sample_packet::<L>(px, py, active, s, cull, &mut counts);
-                note_marks(marks, s, lanes, &mut halves, active, |k| at(k as u32));
+                out.note(s, lanes, &mut halves, active, at);
             }
             if !frustum_decided {
                 let t = &counts.traversal;
-                let leaves = t.frustum_leaves - seen.frustum_leaves;
+                let leaves = t.frustum_leaves - seen.0;
                 if leaves > 0 {
-                    let entered = t.frustum_leaf_lanes - seen.frustum_leaf_lanes;
+                    let entered = t.frustum_leaf_lanes - seen.1;
                     cull.frustum = frustum_pays(leaves, entered, active);
                     frustum_decided = true;
                 }
             }
             counts.cone_prims += cone_prims * active.count_ones() as u64 * taken;
             counts.cone_trees += cone_tree as u64 * taken;
-            for k in 0..L::WIDTH as u32 {
-                if active >> k & 1 != 0 {
-                    sums[at(k)] = lanes.lane(k as usize);
-                }
-            }
+            out.finish(lanes, active, at);
         }
     }
     counts
@@ -635,20 +751,15 @@ fn accumulate_tile_regrouped<L: Lane>(
     tracer: &Tracer,
     tile: Rect,
     samples: std::ops::Range<u32>,
-    sums: &mut [Vec3],
-    marks: &mut [Mark],
+    out: &mut TileOut,
 ) -> RayCounts {
     let Rect { x0, y0, x1, y1 } = tile;
     let mut counts = RayCounts::default();
     let cull = tracer.camera_cull(x0, y0, x1, y1);
     let (fw, fh) = footprint(L::WIDTH);
-    let stride = tile.width() as usize;
     let taken = samples.len() as u64;
     let (cone_prims, cone_tree) = cull.skipped(tracer.accel);
-    let at = |px: u32, py: u32, k: usize| {
-        let (x, y) = (px + k as u32 % fw, py + k as u32 / fw);
-        (y - y0) as usize * stride + (x - x0) as usize
-    };
+    let at = |px: u32, py: u32, k: usize| (px - x0 + k as u32 % fw, py - y0 + k as u32 / fw);
     let mut packets = Vec::new();
     let mut lanes = Vec::new();
     for py in (y0..y1).step_by(fh as usize) {
@@ -667,13 +778,7 @@ fn accumulate_tile_regrouped<L: Lane>(
                 pixels,
                 active,
             });
-            lanes.push(V3::<L>::from_fn(|k| {
-                if active >> k & 1 != 0 {
-                    sums[at(px, py, k)]
-                } else {
-                    Vec3::ZERO
-                }
-            }));
+            lanes.push(out.start::<L>(active, |k| at(px, py, k)));
             counts.cone_prims += cone_prims * active.count_ones() as u64 * taken;
             counts.cone_trees += cone_tree as u64 * taken;
         }
@@ -684,16 +789,16 @@ fn accumulate_tile_regrouped<L: Lane>(
     // added after it, so each pixel still sums its samples in sample order.
     let mut regroup = true;
     let zero = [V3::<L>::splat(Vec3::ZERO); MAX_MARKS];
-    let mut halves = vec![zero; if marks.is_empty() { 0 } else { packets.len() }];
+    let mut halves = vec![zero; if out.marked() { packets.len() } else { 0 }];
     for s in samples.clone() {
         if !regroup {
             for (i, (p, sum)) in packets.iter().zip(lanes.iter_mut()).enumerate() {
                 for s in s..samples.end {
                     let (x, y, c) = (p.x0, p.y0, &mut counts);
                     *sum = *sum + tracer.sample_pixels(x, y, &p.pixels, p.active, s, cull, c);
-                    if !marks.is_empty() {
+                    if out.marked() {
                         let at = |k| at(p.x0, p.y0, k);
-                        note_marks(marks, s, *sum, &mut halves[i], p.active, at);
+                        out.note(s, *sum, &mut halves[i], p.active, at);
                     }
                 }
             }
@@ -703,18 +808,16 @@ fn accumulate_tile_regrouped<L: Lane>(
         for (sum, c) in lanes.iter_mut().zip(&colors) {
             *sum = *sum + *c;
         }
-        if !marks.is_empty() {
+        if out.marked() {
             for ((p, sum), halves) in packets.iter().zip(&lanes).zip(&mut halves) {
                 let at = |k| at(p.x0, p.y0, k);
-                note_marks(marks, s, *sum, halves, p.active, at);
+                out.note(s, *sum, halves, p.active, at);
             }
         }
         regroup = saved.pays();
     }
     for (p, sum) in packets.iter().zip(&lanes) {
-        for k in set_lanes(p.active) {
-            sums[at(p.x0, p.y0, k)] = sum.lane(k);
-        }
+        out.finish(*sum, p.active, |k| at(p.x0, p.y0, k));
     }
     counts
 }

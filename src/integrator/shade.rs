@@ -436,6 +436,12 @@ impl Tracer<'_> {
             return PacketHits::none(paths.active);
         }
         let cx = Context::new(scene, &mut counts.traversal);
+        // Without instances the tree's hits are the answer, made straight into this
+        // call's: through `Accel::closest_hit_packet`, which may add an instance's, they
+        // were copied once more (11 instructions a packet, 0.7% of `mixed` 8 wide).
+        if scene.instances.is_empty() {
+            return self.accel.tree.closest_hit_packet(cx, &packet, T_MIN);
+        }
         self.accel.closest_hit_packet(cx, &packet, T_MIN)
     }
 
