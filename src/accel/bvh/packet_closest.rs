@@ -351,11 +351,12 @@ impl Bvh {
         p: &RayPacket<L>,
         t_min: f32,
     ) -> PacketHits<L> {
-        self.closest_hit_packet_within(cx, p, t_min, PacketHits::none(p.active))
+        self.closest_from(cx, p, t_min, None)
     }
 
     /// `closest_hit_packet` from the bounds and hits of `st` (`PacketHits::within`: a
     /// lane takes only a hit in `[t_min, st.t]`).
+    #[inline(always)]
     pub fn closest_hit_packet_within<L: Lane>(
         &self,
         cx: Context<'_>,
@@ -363,8 +364,24 @@ impl Bvh {
         t_min: f32,
         st: PacketHits<L>,
     ) -> PacketHits<L> {
+        self.closest_from(cx, p, t_min, Some(&st))
+    }
+
+    /// `closest_hit_packet_within` from `st`, or from no hits (`PacketHits::none`) made
+    /// here: a packet's hits made by its caller went through memory into the call
+    /// (11 instructions a camera or secondary packet, 0.5% of `mixed` 8 wide).
+    fn closest_from<L: Lane>(
+        &self,
+        cx: Context<'_>,
+        p: &RayPacket<L>,
+        t_min: f32,
+        st: Option<&PacketHits<L>>,
+    ) -> PacketHits<L> {
         let q = &mut PacketQuery::new(cx, p);
-        let mut st = st;
+        let mut st = match st {
+            Some(st) => *st,
+            None => PacketHits::none(p.active),
+        };
         self.beside_runs(
             &p.cull.beside,
             #[inline(always)]
