@@ -232,6 +232,7 @@ pub fn compile_within(
         }
         prototype_index.insert(name.as_str(), prototypes.len() as u32);
         prototypes.push(Prototype {
+            hull: instance::hull_points(&mesh.triangles, &mesh_bounds),
             name: name.clone(),
             scene: Scene::of_triangles(name, camera, pool, mesh_bounds),
             group_materials,
@@ -298,7 +299,7 @@ pub fn compile_within(
                 }
                 object_material.push(m);
             }
-            let (min, max) = instance::world_bounds(&proto.scene.bounds, &transform);
+            let (min, max) = instance::world_bounds(&proto.hull, &transform);
             let reach = min.abs().max(max.abs()).max_element();
             if reach.is_nan() || reach > MAX_COORDINATE {
                 return Err(oerr(format!(

@@ -35,6 +35,9 @@ pub struct Prototype {
     /// Whether each group has triangles (an MTL library may define materials the mesh
     /// does not use).
     pub group_used: Vec<bool>,
+    /// Points whose hull holds the mesh (`hull_points`): what its instances' boxes are
+    /// made from.
+    pub hull: Vec<Vec3>,
 }
 
 impl Prototype {
@@ -182,21 +185,55 @@ impl Instance {
     }
 }
 
-/// The world box of `bounds` (a prototype's, in its space) placed by `to_world`: the
-/// box of its eight corners moved in f64, widened by a relative 2⁻¹⁶ of its size and
-/// position (far more than the f32 rounding of the rays moved into the mesh's space) and
-/// rounded outwards.
-pub fn world_bounds(bounds: &Aabb, to_world: &Transform) -> (glam::DVec3, glam::DVec3) {
-    let (lo, hi) = (bounds.min, bounds.max);
+/// Cells a side of the grid `hull_points` bins a prototype's vertices in.
+const HULL_GRID: usize = 16;
+
+/// Points whose convex hull holds every triangle of `triangles` (whose box is
+/// `bounds`): the corners of the box of the vertices in each cell of a grid of
+/// `HULL_GRID`³ over `bounds`. A placed mesh's world box is the box of these points
+/// moved (`world_bounds`): within a cell of the moved vertices' own box, where the
+/// moved corners of `bounds` make a turned mesh's box up to √2 as wide on each axis
+/// (a ray that enters a box but misses the mesh costs an instance entry). At most 4 096
+/// points whatever the mesh's size.
+pub fn hull_points(triangles: &[[Vec3; 3]], bounds: &Aabb) -> Vec<Vec3> {
+    let n = HULL_GRID as f32;
+    let extent = bounds.max - bounds.min;
+    let scale = Vec3::select(extent.cmpgt(Vec3::ZERO), n / extent, Vec3::ZERO);
+    let mut cells = vec![Aabb::EMPTY; HULL_GRID * HULL_GRID * HULL_GRID];
+    for &v in triangles.iter().flatten() {
+        let c = ((v - bounds.min) * scale)
+            .min(Vec3::splat(n - 1.0))
+            .as_uvec3();
+        let at = (c.z as usize * HULL_GRID + c.y as usize) * HULL_GRID + c.x as usize;
+        cells[at] = cells[at].grow(v);
+    }
+    let corners = |b: &Aabb| {
+        let (lo, hi) = (b.min, b.max);
+        (0..8).map(move |k| {
+            let pick = |bit: usize, lo: f32, hi: f32| if k & bit == 0 { lo } else { hi };
+            Vec3::new(
+                pick(1, lo.x, hi.x),
+                pick(2, lo.y, hi.y),
+                pick(4, lo.z, hi.z),
+            )
+        })
+    };
+    cells
+        .iter()
+        .filter(|b| b.min.cmple(b.max).all())
+        .flat_map(corners)
+        .collect()
+}
+
+/// The world box of a prototype (in its space, the box of `hull`, its `hull_points`)
+/// placed by `to_world`: the box of those points moved in f64, widened by a relative
+/// 2⁻¹⁶ of its size and position (far more than the f32 rounding of the rays moved into
+/// the mesh's space) and rounded outwards. No point: an empty box of infinite bounds.
+pub fn world_bounds(hull: &[Vec3], to_world: &Transform) -> (glam::DVec3, glam::DVec3) {
     let mut min = glam::DVec3::INFINITY;
     let mut max = glam::DVec3::NEG_INFINITY;
-    for k in 0..8 {
-        let corner = Vec3::new(
-            if k & 1 == 0 { lo.x } else { hi.x },
-            if k & 2 == 0 { lo.y } else { hi.y },
-            if k & 4 == 0 { lo.z } else { hi.z },
-        );
-        let p = to_world.point(corner);
+    for &p in hull {
+        let p = to_world.point(p);
         min = min.min(p);
         max = max.max(p);
     }
@@ -231,7 +268,9 @@ pub fn outward(min: glam::DVec3, max: glam::DVec3) -> Aabb {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::desc::{RotationDesc, V3 as V3d};
     use proptest::prelude::*;
+    use std::f32::consts::PI;
 
     fn finite() -> impl Strategy<Value = f32> {
         prop_oneof![-1e3f32..1e3, -1.0f32..1.0, Just(0.0), Just(-0.0)]
@@ -262,5 +301,69 @@ mod tests {
             prop_assert_eq!(bits(ray.dir), bits(d.lane(0)));
             prop_assert_eq!(dt.to_bits(), t.to_bits());
         }
+
+        /// A placed mesh's box holds every moved vertex, and is no wider than the box
+        /// of its moved corners.
+        #[test]
+        fn the_hull_box_holds_the_moved_mesh(
+            vertices in proptest::collection::vec(vec3(), 3..40),
+            m in proptest::collection::vec(-3.0f64..3.0, 12),
+        ) {
+            let rows: Vec<Vec<f64>> = (0..3)
+                .map(|r| m[4 * r..4 * r + 4].to_vec())
+                .chain([vec![0.0, 0.0, 0.0, 1.0]])
+                .collect();
+            let Ok(to_world) = Transform::from_keys(None, &[], None, Some(&rows)) else {
+                return Ok(()); // singular
+            };
+            let triangles: Vec<[Vec3; 3]> = vertices.windows(3).map(|w| [w[0], w[1], w[2]]).collect();
+            let bounds = Aabb::from_points(&vertices);
+            let (min, max) = world_bounds(&hull_points(&triangles, &bounds), &to_world);
+            for &v in &vertices {
+                let p = to_world.point(v);
+                prop_assert!(p.cmpge(min).all() && p.cmple(max).all(), "{p} outside {min}..{max}");
+            }
+            let corners: Vec<Vec3> = (0..8)
+                .map(|k| Vec3::select(glam::BVec3::new(k & 1 != 0, k & 2 != 0, k & 4 != 0), bounds.max, bounds.min))
+                .collect();
+            let (cmin, cmax) = world_bounds(&corners, &to_world);
+            prop_assert!(min.cmpge(cmin).all() && max.cmple(cmax).all());
+        }
+    }
+
+    /// A sphere of triangles turned 45° about y: its box stays within a grid cell of
+    /// the sphere's (the turned corners of its box would make it √2 as wide).
+    #[test]
+    fn a_turned_mesh_keeps_a_tight_box() {
+        let point = |i: usize, j: usize| {
+            let (theta, phi) = (i as f32 * PI / 16.0, j as f32 * PI / 16.0);
+            Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            )
+        };
+        let mut triangles = Vec::new();
+        for i in 0..16 {
+            for j in 0..32 {
+                let [a, b, c, d] = [
+                    point(i, j),
+                    point(i + 1, j),
+                    point(i, j + 1),
+                    point(i + 1, j + 1),
+                ];
+                triangles.extend([[a, b, c], [c, b, d]]);
+            }
+        }
+        let bounds = Aabb::from_points(&triangles.concat());
+        let turn = [RotationDesc {
+            axis: V3d([0.0, 1.0, 0.0]),
+            degrees: 45.0,
+        }];
+        let to_world = Transform::from_keys(None, &turn, None, None).unwrap();
+        let (min, max) = world_bounds(&hull_points(&triangles, &bounds), &to_world);
+        let cell = 2.0 / HULL_GRID as f64;
+        assert!((max - min).max_element() < 2.0 + 2.0 * cell, "{min}..{max}");
+        assert!((max - min).min_element() > 1.99);
     }
 }
