@@ -57,6 +57,10 @@ const GAMMA4: f32 = 4.0 * (f32::EPSILON * 0.5) / (1.0 - 4.0 * (f32::EPSILON * 0.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ToObject {
     rows: [Vec4; 3],
+    /// The rows' columns `a`, `b`, `c`, `t` (`ToObject::ray` moves one ray by them),
+    /// and their absolute values.
+    columns: [Vec3A; 4],
+    abs_columns: [Vec3A; 4],
 }
 
 impl ToObject {
@@ -69,8 +73,22 @@ impl ToObject {
             let c = m.row(r);
             Vec4::new(c.x as f32, c.y as f32, c.z as f32, t[r] as f32)
         };
+        ToObject::from_rows([row(0), row(1), row(2)])
+    }
+
+    fn from_rows(rows: [Vec4; 3]) -> ToObject {
+        let [r0, r1, r2] = rows;
+        let column = |f: fn(Vec4) -> f32| Vec3A::new(f(r0), f(r1), f(r2));
+        let columns = [
+            column(|r| r.x),
+            column(|r| r.y),
+            column(|r| r.z),
+            column(|r| r.w),
+        ];
         ToObject {
-            rows: [row(0), row(1), row(2)],
+            rows,
+            columns,
+            abs_columns: columns.map(Vec3A::abs),
         }
     }
 
@@ -109,20 +127,13 @@ impl ToObject {
     /// component the same operations in the same order, so the same bits.
     #[inline]
     pub fn ray(&self, ray: &Ray) -> (Ray, f32) {
-        let [r0, r1, r2] = self.rows;
-        let column = |f: fn(Vec4) -> f32| Vec3A::new(f(r0), f(r1), f(r2));
-        let c = [
-            column(|r| r.x),
-            column(|r| r.y),
-            column(|r| r.z),
-            column(|r| r.w),
-        ];
+        let (c, a) = (&self.columns, &self.abs_columns);
         let (o, d) = (Vec3A::from(ray.origin), Vec3A::from(ray.dir));
         let linear = |v: Vec3A| (c[0] * v.x + c[1] * v.y) + c[2] * v.z;
         let moved = linear(o) + c[3];
         let dir = linear(d);
-        let a = o.abs();
-        let size = ((c[0].abs() * a.x + c[1].abs() * a.y) + c[2].abs() * a.z) + c[3].abs();
+        let p = o.abs();
+        let size = ((a[0] * p.x + a[1] * p.y) + a[2] * p.z) + a[3];
         let error = size * GAMMA4;
         let p = dir.abs() * error;
         let reach = (p.x + p.y) + p.z;
@@ -293,7 +304,7 @@ mod tests {
             dir in vec3(),
         ) {
             prop_assume!(dir != Vec3::ZERO);
-            let m = ToObject { rows };
+            let m = ToObject::from_rows(rows);
             let (ray, dt) = m.ray(&Ray::new(origin, dir));
             let (o, d, t) = m.apply::<f32>(V3::splat(origin), V3::splat(dir));
             let bits = |v: Vec3| v.to_array().map(f32::to_bits);
