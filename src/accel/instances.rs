@@ -52,19 +52,21 @@ fn query_in(inst: &Instance, t_min: f32, t_light: f32, id_light: u32, dt: f32) -
 }
 
 impl Accel {
-    /// The instances' hits that beat `best` in `[t_min, t_max]`, kept in it.
+    /// The instances' hits that beat `best` in `[t_min, t_max]`, kept in it; `inv`: the
+    /// reciprocals of the ray's direction, from `InstanceTree::entered_by`.
     #[inline(never)]
     pub(super) fn instances_closest(
         &self,
         cx: Context<'_>,
         ray: &Ray,
+        inv: Vec4,
         t_min: f32,
         t_max: f32,
         best: &mut Option<Hit>,
     ) {
         let scene = cx.scene;
-        let single = SingleRay::new(ray);
         let best_t = Cell::new(best.map_or(t_max, |h| h.t));
+        let single = SingleRay::new(ray, inv);
         let nodes = self.instances.for_each_single(
             &single.nodes,
             t_min,
@@ -94,7 +96,13 @@ impl Accel {
     /// many primitives asks for the closest hit over both levels instead, as the tree
     /// does.
     #[inline(never)]
-    pub(super) fn instances_occlude(&self, cx: Context<'_>, ray: &Ray, query: ShadowQuery) -> bool {
+    pub(super) fn instances_occlude(
+        &self,
+        cx: Context<'_>,
+        ray: &Ray,
+        inv: Vec4,
+        query: ShadowQuery,
+    ) -> bool {
         let scene = cx.scene;
         let ShadowQuery {
             t_min,
@@ -102,7 +110,7 @@ impl Accel {
             id_light,
             ..
         } = query;
-        let single = SingleRay::new(ray);
+        let single = SingleRay::new(ray, inv);
         let mut occluded = false;
         let nodes = self.instances.for_each_single(
             &single.nodes,
@@ -306,8 +314,7 @@ struct SingleRay {
 
 impl SingleRay {
     #[inline(always)]
-    fn new(ray: &Ray) -> SingleRay {
-        let inv = Vec4::ONE / ray.dir.extend(1.0);
+    fn new(ray: &Ray, inv: Vec4) -> SingleRay {
         SingleRay {
             nodes: BoxRay8::from_inv(ray, inv),
             leaves: BoxTest::new(ray, inv),
@@ -344,6 +351,20 @@ pub struct InstanceTree {
 const TOP_STACK: usize = stack::capacity(2);
 
 impl InstanceTree {
+    /// The reciprocals of `ray`'s direction (`inv.xyz`), if it meets the box of all the
+    /// instances within `[t_min, t_max]`; a single ray asks no more of the instances
+    /// otherwise. Where the instances stand together most rays miss that box (the herd
+    /// of `benches/instances` at 320 px: 45% of its camera rays and of its shadow
+    /// rays), and this test in the caller's line saves them the call and its set-up.
+    #[inline(always)]
+    pub(super) fn entered_by(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Vec4> {
+        let inv = Vec4::ONE / ray.dir.extend(1.0);
+        let all = &self.nodes.first()?.bounds;
+        BoxTest::new(ray, inv)
+            .meets(all, t_min, t_max)
+            .then_some(inv)
+    }
+
     pub fn build(scene: &Scene) -> InstanceTree {
         let mut refs: Vec<PrimRef> = (scene.instances.iter().enumerate())
             .map(|(i, inst)| PrimRef::new(inst.bounds, PrimKind::Triangle, i as u32))

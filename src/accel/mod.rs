@@ -242,7 +242,10 @@ impl Accel {
         debug_assert_finite(ray);
         let mut best = self.tree.closest_hit(cx.reborrow(), ray, t_min, t_max);
         if !cx.scene.instances.is_empty() {
-            self.instances_closest(cx, ray, t_min, t_max, &mut best);
+            let bound = best.map_or(t_max, |h| h.t);
+            if let Some(inv) = self.instances.entered_by(ray, t_min, bound) {
+                self.instances_closest(cx, ray, inv, t_min, t_max, &mut best);
+            }
         }
         best
     }
@@ -263,9 +266,13 @@ impl Accel {
                 .closest_hit(cx, ray, t_min, f32::INFINITY)
                 .is_some_and(|h| h.object == light.object);
         }
-        self.tree
-            .light_query(cx.reborrow(), ray, t_min, light)
-            .is_some_and(|query| !self.instances_occlude(cx, ray, query))
+        let Some(query) = self.tree.light_query(cx.reborrow(), ray, t_min, light) else {
+            return false;
+        };
+        match self.instances.entered_by(ray, t_min, query.t_light) {
+            Some(inv) => !self.instances_occlude(cx, ray, inv, query),
+            None => true,
+        }
     }
 
     /// Whether a packet's queries test boxes, so its rays need the box constants
