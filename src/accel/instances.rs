@@ -182,10 +182,7 @@ impl Accel {
                     let within = PacketHits::within(lanes, t.get());
                     let cx = Context::new(proto, &mut *cx.stats);
                     let found = tree.closest_hit_packet_within(cx, &q, t_min, within);
-                    for k in set_lanes(found.found & lanes) {
-                        let Some(hit) = found.hit(k) else { continue };
-                        keep(k, inst.world_hit(hit, dt.lane(k)));
-                    }
+                    hits.keep_placed(&found, lanes, dt, inst.first_id, inst.first_object);
                 }
                 t.set(hits.t);
                 true
