@@ -199,6 +199,12 @@ impl BuildTree {
 /// Build over `refs`, reordering them so that every leaf is a contiguous range.
 /// `None` for no references.
 pub fn build(refs: &mut [PrimRef]) -> Option<BuildTree> {
+    build_with_leaves(refs, MAX_LEAF)
+}
+
+/// `build` with leaves of at most `max_leaf` references (1 to `MAX_LEAF`).
+pub fn build_with_leaves(refs: &mut [PrimRef], max_leaf: usize) -> Option<BuildTree> {
+    debug_assert!((1..=MAX_LEAF).contains(&max_leaf));
     if refs.is_empty() {
         return None;
     }
@@ -211,7 +217,16 @@ pub fn build(refs: &mut [PrimRef]) -> Option<BuildTree> {
     };
     // A binary tree over n references has at most 2n − 1 nodes: never reallocates.
     let (mut nodes, mut later) = (Vec::with_capacity(2 * refs.len() - 1), Vec::new());
-    build_node(refs, 0, 0, &all, &mut Bins::new(), &mut nodes, &mut later);
+    build_node(
+        refs,
+        0,
+        0,
+        &all,
+        &mut Bins::new(),
+        &mut nodes,
+        &mut later,
+        max_leaf,
+    );
     later.insert(0, nodes);
     Some(BuildTree { segments: later })
 }
@@ -568,6 +583,7 @@ fn best_split_pair(
 
 /// Build the subtree over `refs` (from `offset` in the whole array) into `out`, its
 /// segment, and `later`, the segments after it (`later[j]` is `j + 1` segments on).
+#[allow(clippy::too_many_arguments)]
 fn build_node(
     refs: &mut [PrimRef],
     offset: usize,
@@ -576,10 +592,11 @@ fn build_node(
     bins: &mut Bins,
     out: &mut Vec<BuildNode>,
     later: &mut Vec<Vec<BuildNode>>,
+    max_leaf: usize,
 ) {
     let n = refs.len();
     let bounds = all.bounds.aabb();
-    if n <= MAX_LEAF && (n == 1 || single_kind(refs)) {
+    if n <= max_leaf && (n == 1 || single_kind(refs)) {
         out.push(leaf(refs, offset, bounds));
         return;
     }
@@ -645,7 +662,7 @@ fn build_node(
     });
     if n > PARALLEL_THRESHOLD {
         let ((), (right_nodes, right_later)) = rayon::join(
-            || build_node(left, offset, depth + 1, &l, bins, out, later),
+            || build_node(left, offset, depth + 1, &l, bins, out, later, max_leaf),
             || {
                 let (mut nodes, mut later) = (Vec::with_capacity(2 * right.len() - 1), Vec::new());
                 let bins = &mut Bins::new();
@@ -657,6 +674,7 @@ fn build_node(
                     bins,
                     &mut nodes,
                     &mut later,
+                    max_leaf,
                 );
                 (nodes, later)
             },
@@ -667,9 +685,18 @@ fn build_node(
         later.push(right_nodes);
         later.extend(right_later);
     } else {
-        build_node(left, offset, depth + 1, &l, bins, out, later);
+        build_node(left, offset, depth + 1, &l, bins, out, later, max_leaf);
         out[me].first_or_right = (out.len() - me) as u32;
-        build_node(right, offset + mid, depth + 1, &r, bins, out, later);
+        build_node(
+            right,
+            offset + mid,
+            depth + 1,
+            &r,
+            bins,
+            out,
+            later,
+            max_leaf,
+        );
     }
 }
 
@@ -724,6 +751,37 @@ mod tests {
         let mut seen = Vec::new();
         check(&tree, BuildTree::ROOT, &refs, &mut seen);
         assert_eq!(seen.len(), 1000);
+    }
+
+    /// The instances' tree: every leaf one reference, equal centroids too.
+    #[test]
+    fn leaves_of_one_hold_one_reference() {
+        for same in [false, true] {
+            let mut refs: Vec<PrimRef> = (0..300)
+                .map(|i| {
+                    r(
+                        if same { 0.0 } else { (i * 7 % 13) as f32 },
+                        PrimKind::Triangle,
+                        i,
+                    )
+                })
+                .collect();
+            let tree = build_with_leaves(&mut refs, 1).unwrap();
+            let mut seen = Vec::new();
+            let mut leaves = vec![BuildTree::ROOT];
+            while let Some(i) = leaves.pop() {
+                match tree.children(i) {
+                    Some(children) => leaves.extend(children),
+                    None => {
+                        let node = tree.node(i);
+                        assert_eq!(node.count, 1);
+                        seen.push(refs[node.first_or_right as usize].index());
+                    }
+                }
+            }
+            seen.sort_unstable();
+            assert_eq!(seen, (0..300).collect::<Vec<u32>>());
+        }
     }
 
     /// Pseudo-random references: boxes of many sizes, some repeated (equal centroids),

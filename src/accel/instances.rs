@@ -66,17 +66,13 @@ impl Accel {
     ) {
         let scene = cx.scene;
         let best_t = Cell::new(best.map_or(t_max, |h| h.t));
-        let single = SingleRay::new(ray, inv);
         let nodes = self.instances.for_each_single(
-            &single.nodes,
+            &BoxRay8::from_inv(ray, inv),
             t_min,
             || best_t.get(),
-            |i, alone| {
+            |i| {
                 let inst = &scene.instances[i as usize];
                 let bound = best_t.get();
-                if !alone && !single.leaves.meets(&inst.bounds, t_min, bound) {
-                    return true;
-                }
                 let (tree, proto) = self.prototype(scene, inst);
                 let (moved, dt) = moved(inst, ray);
                 // A hit at t + dt ≤ bound has t ≤ bound (dt ≥ 0): the bound loses none.
@@ -110,17 +106,13 @@ impl Accel {
             id_light,
             ..
         } = query;
-        let single = SingleRay::new(ray, inv);
         let mut occluded = false;
         let nodes = self.instances.for_each_single(
-            &single.nodes,
+            &BoxRay8::from_inv(ray, inv),
             t_min,
             || t_light,
-            |i, alone| {
+            |i| {
                 let inst = &scene.instances[i as usize];
-                if !alone && !single.leaves.meets(&inst.bounds, t_min, t_light) {
-                    return true;
-                }
                 let (tree, proto) = self.prototype(scene, inst);
                 let (moved, dt) = moved(inst, ray);
                 let query = query_in(inst, t_min, t_light, id_light, dt);
@@ -273,7 +265,7 @@ impl Accel {
     }
 }
 
-/// One ray's box test of an instance in a leaf of several: `Aabb::hit`'s robust slab
+/// One ray's box test of the instances' whole box: `Aabb::hit`'s robust slab
 /// test (a NaN from 0 · ∞ leaves its axis unconstrained, the far distance widened by
 /// `SLAB_FAR_SCALE`) on the three axes at once. Only a cull: conservative is enough.
 struct BoxTest {
@@ -300,22 +292,6 @@ impl BoxTest {
         let near = Vec3A::select(nan, Vec3A::NEG_INFINITY, lo.min(hi));
         let far = Vec3A::select(nan, Vec3A::INFINITY, lo.max(hi) * SLAB_FAR_SCALE);
         near.max_element().max(t_min) <= far.min_element().min(t_max)
-    }
-}
-
-/// One ray at the instance level: the 8-wide box test's constants, and the leaves'.
-struct SingleRay {
-    nodes: BoxRay8,
-    leaves: BoxTest,
-}
-
-impl SingleRay {
-    #[inline(always)]
-    fn new(ray: &Ray, inv: Vec4) -> SingleRay {
-        SingleRay {
-            nodes: BoxRay8::from_inv(ray, inv),
-            leaves: BoxTest::new(ray, inv),
-        }
     }
 }
 
@@ -366,7 +342,9 @@ impl InstanceTree {
         let mut refs: Vec<PrimRef> = (scene.instances.iter().enumerate())
             .map(|(i, inst)| PrimRef::new(inst.bounds, PrimKind::Triangle, i as u32))
             .collect();
-        let Some(tree) = build::build(&mut refs) else {
+        // Leaves of one instance: a node's test then meets each instance's box, and the
+        // single rays enter them nearest first.
+        let Some(tree) = build::build_with_leaves(&mut refs, 1) else {
             return InstanceTree::default();
         };
         let mut t = InstanceTree {
@@ -406,18 +384,18 @@ impl InstanceTree {
         at as u32
     }
 
-    /// Each instance in a leaf whose box `ray` meets within `[t_min, bound()]`, nearest
-    /// subtree first, while `visit(instance, alone)` returns true (`alone`: the only
-    /// instance of its leaf, whose box the ray was then seen to meet); the number of
-    /// nodes visited. As `Bvh::traverse`: the node being visited stays in a register,
-    /// only the farther children are pushed, with their entries.
+    /// Each instance whose box `ray` meets within `[t_min, bound()]` (a leaf holds one,
+    /// whose box is its node's child box; a lone instance's, the root, is the box the
+    /// caller tested: `entered_by`), nearest first, while `visit(instance)` returns
+    /// true; the number of nodes visited. As `Bvh::traverse`: the node being visited
+    /// stays in a register, only the farther children are pushed, with their entries.
     #[inline(always)]
     fn for_each_single(
         &self,
         ray: &BoxRay8,
         t_min: f32,
         bound: impl Fn() -> f32,
-        mut visit: impl FnMut(u32, bool) -> bool,
+        mut visit: impl FnMut(u32) -> bool,
     ) -> u64 {
         let Some(mut code) = self.root8 else {
             return 0;
@@ -439,12 +417,9 @@ impl InstanceTree {
                     continue;
                 }
             } else {
-                let (_, start, count) = decode_leaf(code);
-                let (start, count) = (start as usize, count as usize);
-                for &i in &self.order[start..start + count] {
-                    if !visit(i, count == 1) {
-                        return nodes;
-                    }
+                let (_, start, _) = decode_leaf(code);
+                if !visit(self.order[start as usize]) {
+                    return nodes;
                 }
             }
             // The next node whose entry is still within the bound.
