@@ -191,14 +191,14 @@ pub struct Outcome {
     pub spp: Vec<u32>,
 }
 
-/// One tile of the frame's lattice in an adaptive render: its pixels' sums and its
-/// estimate. The render (`render::render_rects_adaptive`) adds the samples.
+/// One tile of the frame's lattice in an adaptive render: its estimate and the sums of
+/// its pixels' first halves. The render (`render::render_rects_adaptive`) keeps the sums
+/// of all their samples, row by row, where their means go (the output's rows), and adds
+/// the samples.
 pub(crate) struct TileSums {
     pub tile: Rect,
-    /// The sum of each pixel's first `n` samples, row by row.
-    pub sums: Vec<Vec3>,
-    /// The sum of each pixel's first `n_half` samples (allocated by the first step after
-    /// pass 0: most tiles of most frames stop there).
+    /// The sum of each pixel's first `n_half` samples, row by row (allocated by the first
+    /// step after pass 0: most tiles of most frames stop there).
     half: Vec<Vec3>,
     pub n: u32,
     n_half: u32,
@@ -218,10 +218,8 @@ pub(crate) struct TileSums {
 
 impl TileSums {
     pub fn new(tile: Rect, weight: u64) -> Self {
-        let n = tile.pixel_count() as usize;
         Self {
             tile,
-            sums: vec![Vec3::ZERO; n],
             half: Vec::new(),
             n: 0,
             n_half: 0,
@@ -235,10 +233,13 @@ impl TileSums {
         }
     }
 
-    /// Before samples `self.n..`: the sums so far become the first half.
-    pub fn start_step(&mut self) {
+    /// Before samples `self.n..`: the sums so far (`rows`, the tile's) become the first
+    /// half.
+    pub fn start_step(&mut self, rows: &[&mut [Vec3]]) {
         self.half.clear();
-        self.half.extend_from_slice(&self.sums);
+        for row in rows {
+            self.half.extend_from_slice(row);
+        }
         self.n_half = self.n;
     }
 
@@ -253,12 +254,19 @@ impl TileSums {
         self.n_half = 2;
     }
 
-    /// After the samples up to `n` were added to `sums`: the estimate at `n`.
-    pub fn end_step(&mut self, n: u32, counts: &RayCounts, kind: SamplerKind) {
+    /// After the samples up to `n` were added to the tile's sums (`rows`): the estimate
+    /// at `n`.
+    pub fn end_step(
+        &mut self,
+        n: u32,
+        rows: &[&mut [Vec3]],
+        counts: &RayCounts,
+        kind: SamplerKind,
+    ) {
         self.counts.add(counts);
         self.n = n;
         if self.n_half > 0 {
-            let raw = raw_estimate(&self.sums, &self.half, n, self.n_half);
+            let raw = raw_estimate(rows, &self.half, n, self.n_half);
             self.update(raw, n == 2 * self.n_half, kind);
         }
     }
@@ -301,16 +309,17 @@ impl TileSums {
     }
 }
 
-/// The uncorrected relMSE estimate of a tile whose pixels' sums are `sums` at `n`
-/// samples and `half` at `a`: the mean over pixels and channels of (M − A)²·a/b over
-/// M² + ε (`pixel_term`, `raw_of_terms`).
-fn raw_estimate(sums: &[Vec3], half: &[Vec3], n: u32, a: u32) -> f64 {
+/// The uncorrected relMSE estimate of a tile whose pixels' sums are `rows` at `n`
+/// samples and `half` (row by row) at `a`: the mean over pixels and channels of
+/// (M − A)²·a/b over M² + ε (`pixel_term`, `raw_of_terms`).
+fn raw_estimate(rows: &[&mut [Vec3]], half: &[Vec3], n: u32, a: u32) -> f64 {
     let mut terms = [0.0f32; (TILE * TILE) as usize];
     let v3 = |v: Vec3| V3::new(v.x, v.y, v.z);
+    let sums = rows.iter().flat_map(|row| row.iter());
     for ((term, sum), half) in terms.iter_mut().zip(sums).zip(half) {
         *term = pixel_term::<f32>(v3(*sum), v3(*half), n, a);
     }
-    raw_of_terms(&terms[..sums.len()], n, a)
+    raw_of_terms(&terms[..half.len()], n, a)
 }
 
 /// The uncorrected relMSE estimate from a tile's pixels' terms at `n` samples against

@@ -9,7 +9,7 @@ use crate::error::{Error, Result};
 use crate::farm::region::{Rect, Region, TILE};
 pub use crate::film::Film;
 use crate::integrator::{footprint, PacketPixels, RayCounts, Regrouping, Tracer};
-use crate::lanes::{set_lanes, F32x16, Lane, V3};
+use crate::lanes::{F32x16, Lane, V3};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 pub use crate::settings::{PacketWidth, RenderSettings};
@@ -287,25 +287,103 @@ fn render_rects_adaptive(
         tiles[i].weight += adaptive::intersect(tiles[i].tile, rect).pixel_count();
     }
 
+    // Where each tile keeps the sums of its pixels: a tile that lies whole in one
+    // rectangle in its own rows of `out`, where its means go, so that no sum is copied
+    // and no memory but the output's is touched; a tile that the region's edge cuts (a
+    // crop's) in `side`, whose means are copied out at the end.
+    let mut home = vec![true; tiles.len()];
+    let mut seen = vec![false; tiles.len()];
+    for &(i, rect, _) in &pieces {
+        home[i] &= !seen[i] && adaptive::intersect(tiles[i].tile, rect) == tiles[i].tile;
+        seen[i] = true;
+    }
+    let mut slot = vec![usize::MAX; tiles.len()];
+    let mut sides = 0;
+    for (i, _) in home.iter().enumerate().filter(|(_, &h)| !h) {
+        slot[i] = sides;
+        sides += 1;
+    }
+    let mut side = vec![Vec3::ZERO; sides * (TILE * TILE) as usize];
+    // Every tile's rows, tile after tile: tile i's from `first[i]`.
+    let mut first = Vec::with_capacity(tiles.len() + 1);
+    first.push(0);
+    for t in &tiles {
+        first.push(first.last().unwrap() + t.tile.height() as usize);
+    }
+    let mut flat: Vec<&mut [Vec3]> = (0..first[tiles.len()])
+        .map(|_| <&mut [Vec3]>::default())
+        .collect();
+    let mut rest = &mut *out;
+    let mut piece = 0;
+    for rect in rects {
+        let (pixels, next) = rest.split_at_mut(rect.pixel_count() as usize);
+        rest = next;
+        // The rectangle's tiles are its pieces, row by row of the lattice.
+        let (tx0, ty0) = (rect.x0 / TILE, rect.y0 / TILE);
+        let columns = (rect.x1.div_ceil(TILE) - tx0) as usize;
+        for (y, mut line) in (rect.y0..).zip(pixels.chunks_mut(rect.width() as usize)) {
+            let lattice_row = piece + (y / TILE - ty0) as usize * columns;
+            let mut x = rect.x0;
+            while !line.is_empty() {
+                let end = ((x / TILE + 1) * TILE).min(rect.x1);
+                let (segment, after) = std::mem::take(&mut line).split_at_mut((end - x) as usize);
+                line = after;
+                let i = pieces[lattice_row + (x / TILE - tx0) as usize].0;
+                if home[i] {
+                    flat[first[i] + (y - tiles[i].tile.y0) as usize] = segment;
+                }
+                x = end;
+            }
+        }
+        piece += columns * (rect.y1.div_ceil(TILE) - ty0) as usize;
+    }
+    for (chunk, (i, _)) in side
+        .chunks_mut((TILE * TILE) as usize)
+        .zip(home.iter().enumerate().filter(|(_, &h)| !h))
+    {
+        let t = tiles[i].tile;
+        for (row, line) in flat[first[i]..first[i + 1]]
+            .iter_mut()
+            .zip(chunk.chunks_mut(t.width() as usize))
+        {
+            *row = line;
+        }
+    }
+    let mut tile_rows: Vec<&mut [&mut [Vec3]]> = Vec::with_capacity(tiles.len());
+    let mut rest = flat.as_mut_slice();
+    for t in &tiles {
+        let (rows, next) = rest.split_at_mut(t.tile.height() as usize);
+        tile_rows.push(rows);
+        rest = next;
+    }
+
     let kind = settings.sampler;
     let max = adaptive.max_spp;
     let target = adaptive.target_rel_mse();
+    // A tile that pass 0 leaves final (at the target or the budget, or the last pass)
+    // has its means written at once, while its rows are in the cache.
+    let last = adaptive.passes.is_some_and(|p| p <= 1);
+    let mut means = vec![false; tiles.len()];
     // Pass 0: every tile to FIRST_PASS_SPP in one sweep over its pixels, with the terms
-    // of its estimates at 2 and 4 samples taken on the way. The terms' buffers are a
-    // worker's, not a tile's: the marks overwrite them whole.
+    // of its estimates at 2 and 4 samples taken on the way. The terms' buffer is a
+    // worker's, not a tile's: the sweep overwrites it whole.
     let buffers = || vec![0.0f32; 2 * (TILE * TILE) as usize];
-    tiles.par_iter_mut().for_each_init(buffers, |buffers, t| {
-        let len = t.sums.len();
-        let (at2, at4) = buffers.split_at_mut(len);
-        let at4 = &mut at4[..len];
-        let mut marks = [Mark { n: 2, terms: at2 }, Mark { n: 4, terms: at4 }];
-        let (pw, tile) = (settings.packet_width, t.tile);
-        let first = 0..FIRST_PASS_SPP;
-        let counts = accumulate_tile_marked(tracer, pw, tile, first, &mut t.sums, &mut marks);
-        let [at2, at4] = marks.map(|m| &*m.terms);
-        t.first_pass(at2, at4, &counts, kind);
-        on_tile();
-    });
+    tiles
+        .par_iter_mut()
+        .zip(tile_rows.par_iter_mut())
+        .zip(means.par_iter_mut().zip(home.par_iter()))
+        .for_each_init(buffers, |terms, ((t, rows), (mean, &home))| {
+            let pw = settings.packet_width;
+            let counts = first_pass_tile(tracer, pw, t.tile, rows, terms);
+            let len = t.tile.pixel_count() as usize;
+            let (at2, at4) = terms.split_at(TERMS_AT4);
+            t.first_pass(&at2[..len], &at4[..len], &counts, kind);
+            if home && (last || t.n >= max || t.estimate <= target) {
+                divide_rows(rows, t.n);
+                *mean = true;
+            }
+            on_tile();
+        });
     let pixels: u64 = tiles.iter().map(|t| t.tile.pixel_count()).sum();
     let mut samples = pixels * FIRST_PASS_SPP as u64;
     let mut pass = 0;
@@ -350,34 +428,45 @@ fn render_rects_adaptive(
         // pixels are its own, and each pixel's samples are added in the same order). A
         // pass of many tiles keeps them whole: a band sets up its own camera cone and
         // packets.
-        let mut pass_tiles: Vec<&mut TileSums> = tiles.iter_mut().filter(|t| takes(t)).collect();
+        let mut pass_tiles: Vec<_> = tiles
+            .iter_mut()
+            .zip(tile_rows.iter_mut())
+            .filter(|(t, _)| takes(t))
+            .collect();
         let band = if pass_tiles.len() < FEW_TILES {
             BAND
         } else {
             TILE
         };
-        pass_tiles.par_iter_mut().for_each(|t| {
+        pass_tiles.par_iter_mut().for_each(|(t, rows)| {
             let n = (2 * t.n).min(max);
-            t.start_step();
+            t.start_step(rows);
             let (tile, from) = (t.tile, t.n);
-            let rows = band as usize * tile.width() as usize;
-            let counts = t
-                .sums
-                .par_chunks_mut(rows)
+            let counts = rows
+                .par_chunks_mut(band as usize)
                 .enumerate()
-                .map(|(k, sums)| {
+                .map(|(k, rows)| {
                     let y0 = tile.y0 + k as u32 * band;
                     let part = Rect::new(tile.x0, y0, tile.x1, (y0 + band).min(tile.y1));
-                    accumulate_tile(tracer, settings.packet_width, part, from..n, sums)
+                    let mut sums = TileOut::Sums { rows };
+                    tile_sums(tracer, settings.packet_width, part, from..n, &mut sums)
                 })
                 .reduce(RayCounts::default, sum_counts);
-            t.end_step(n, &counts, kind);
+            t.end_step(n, rows, &counts, kind);
             on_tile();
         });
         samples = next_samples;
     };
 
-    // The pixels: each tile's means into the rectangles' places, row by row.
+    // The pixels: the means of the tiles in `out` in place, those of `side` copied to
+    // the rectangles' places.
+    for (i, (t, rows)) in tiles.iter().zip(tile_rows.iter_mut()).enumerate() {
+        if home[i] && !means[i] {
+            divide_rows(rows, t.n);
+        }
+    }
+    drop(tile_rows);
+    drop(flat);
     let mut spp = vec![0u32; out.len()];
     for &(i, rect, offset) in &pieces {
         let t = &tiles[i];
@@ -385,31 +474,48 @@ fn render_rects_adaptive(
         let len = part.width() as usize;
         for y in part.y0..part.y1 {
             let at = offset + ((y - rect.y0) * rect.width() + (part.x0 - rect.x0)) as usize;
-            let from = ((y - t.tile.y0) * t.tile.width() + (part.x0 - t.tile.x0)) as usize;
+            spp[at..at + len].fill(t.n);
+            if home[i] {
+                continue;
+            }
+            let from = slot[i] * (TILE * TILE) as usize
+                + ((y - t.tile.y0) * t.tile.width() + (part.x0 - t.tile.x0)) as usize;
             let n = t.n as f32;
-            for (pixel, sum) in out[at..at + len].iter_mut().zip(&t.sums[from..from + len]) {
+            for (pixel, sum) in out[at..at + len].iter_mut().zip(&side[from..from + len]) {
                 *pixel = *sum / n;
             }
-            spp[at..at + len].fill(t.n);
         }
     }
     let mut counts = RayCounts::default();
     for t in &tiles {
         counts.add(&t.counts);
     }
-    let total: u64 = spp.iter().map(|&n| n as u64).sum();
+    // The samples a pixel from the tiles' (a tile's pixels in the region: its weight).
+    let region = tiles.iter().filter(|t| t.weight > 0);
+    let total: u64 = region.clone().map(|t| t.n as u64 * t.weight).sum();
     (
         counts,
         Outcome {
             passes: pass + 1,
             stop,
             estimate: adaptive::estimate(&tiles),
-            spp_min: spp.iter().copied().min().unwrap_or(0),
-            spp_max: spp.iter().copied().max().unwrap_or(0),
+            spp_min: region.clone().map(|t| t.n).min().unwrap_or(0),
+            spp_max: region.map(|t| t.n).max().unwrap_or(0),
             spp_mean: total as f64 / spp.len().max(1) as f64,
             spp,
         },
     )
+}
+
+/// Each pixel of `rows` divided by `n`, channel by channel: the sums of `n` samples
+/// become their means, with the bits of `TileOut::Means`'s division in lanes.
+fn divide_rows(rows: &mut [&mut [Vec3]], n: u32) {
+    let n = n as f32;
+    for row in rows.iter_mut() {
+        for c in bytemuck::cast_slice_mut::<Vec3, f32>(row) {
+            *c /= n;
+        }
+    }
 }
 
 fn sum_counts(mut a: RayCounts, b: RayCounts) -> RayCounts {
@@ -443,106 +549,82 @@ pub(crate) fn accumulate_tile(
     samples: std::ops::Range<u32>,
     sums: &mut [Vec3],
 ) -> RayCounts {
-    accumulate_tile_marked(tracer, packet_width, tile, samples, sums, &mut [])
-}
-
-/// The terms of an adaptive estimate at `n` samples, taken on the way
-/// (`accumulate_tile_marked`): each pixel's `adaptive::pixel_term` of its sum at `n`
-/// against its sum at `n / 2`.
-pub(crate) struct Mark<'a> {
-    /// The sample count of the estimate (even; the samples start at 0).
-    pub n: u32,
-    /// The pixels' terms, laid out as the tile's `sums`.
-    pub terms: &'a mut [f32],
-}
-
-/// The most marks of one call.
-const MAX_MARKS: usize = 2;
-
-/// [`accumulate_tile`], writing the terms of each of `marks` (at most `MAX_MARKS`, the
-/// samples from 0) when the pixels reach its sample count: one pass over the tile where
-/// separate calls would set up each packet and the tile's camera cone again (adaptive
-/// pass 0 as three calls: 8.3M instructions more than one on `quads` at 256 px, 12% of
-/// its render at 4 samples).
-pub(crate) fn accumulate_tile_marked(
-    tracer: &Tracer,
-    packet_width: PacketWidth,
-    tile: Rect,
-    samples: std::ops::Range<u32>,
-    sums: &mut [Vec3],
-    marks: &mut [Mark],
-) -> RayCounts {
-    debug_assert!(marks.len() <= MAX_MARKS && (marks.is_empty() || samples.start == 0));
-    let stride = tile.width() as usize;
+    let mut lines = sums.chunks_mut(tile.width() as usize);
+    let mut rows: [&mut [Vec3]; TILE as usize] =
+        std::array::from_fn(|_| lines.next().unwrap_or_default());
     let mut out = TileOut::Sums {
-        sums,
-        stride,
-        marks,
+        rows: &mut rows[..tile.height() as usize],
     };
     tile_sums(tracer, packet_width, tile, samples, &mut out)
 }
 
-/// After sample `s` of a packet's pixels (`active` lanes of `sum`, lane k at
-/// `terms[at(k)]`): keep the sums a mark compares with, or write its terms.
-#[inline(always)]
-fn note_marks<L: Lane>(
-    marks: &mut [Mark],
-    s: u32,
-    sum: V3<L>,
-    halves: &mut [V3<L>; MAX_MARKS],
-    active: u32,
-    at: impl Fn(usize) -> usize,
-) {
-    for (mark, half) in marks.iter_mut().zip(halves.iter_mut()) {
-        if s + 1 == mark.n / 2 {
-            *half = sum;
-        } else if s + 1 == mark.n {
-            let q = adaptive::pixel_term(sum, *half, mark.n, mark.n / 2);
-            for k in set_lanes(active) {
-                mark.terms[at(k)] = q.lane(k);
-            }
-        }
-    }
+/// Where pass 0's terms at 4 samples start in its terms' buffer (those at 2 at 0).
+const TERMS_AT4: usize = (TILE * TILE) as usize;
+
+/// Adaptive pass 0 of `tile`: samples `0..FIRST_PASS_SPP` of each pixel, from zero,
+/// their sums into `rows` (`rows[dy][dx]`), and on the way each pixel's
+/// `adaptive::pixel_term` at 2 samples against 1 into `terms[dy * w + dx]` and at 4
+/// against 2 into `terms[TERMS_AT4 + dy * w + dx]` (`w` the tile's width, `terms` at
+/// least `2 * TERMS_AT4` long). One sweep over the tile where separate calls would set
+/// up each packet and the tile's camera cone again (pass 0 as three calls: 8.3M
+/// instructions more than one on `quads` at 256 px, 12% of its render at 4 samples).
+pub(crate) fn first_pass_tile(
+    tracer: &Tracer,
+    packet_width: PacketWidth,
+    tile: Rect,
+    rows: &mut [&mut [Vec3]],
+    terms: &mut [f32],
+) -> RayCounts {
+    let stride = tile.width() as usize;
+    let mut out = TileOut::First {
+        rows,
+        terms,
+        stride,
+    };
+    tile_sums(tracer, packet_width, tile, 0..FIRST_PASS_SPP, &mut out)
 }
 
 /// Where the sums of a tile's pixels start and where they go, pixel (dx, dy) counted
-/// from the tile's corner: a render of `spp` samples starts them at zero and writes the
-/// means into its output (no tile buffer to zero, read into lanes and write back); an
-/// adaptive pass adds to the sums it keeps and takes its marks on the way. One type for
-/// both, so that the tile's loop is compiled once a width (an instantiation each, the
-/// compiler no longer inlined the camera packet's trace into them: `quads` 4.8% more
-/// render instructions 8 wide, 6% scalar).
-enum TileOut<'a, 'b, 'c> {
-    /// The tile's rows of the output (`rows[dy][dx]`), each pixel the mean of its `spp`
-    /// samples.
+/// from the tile's corner at `rows[dy][dx]`: a render of `spp` samples starts them at
+/// zero and writes the means (no tile buffer to zero, read into lanes and write back);
+/// a later adaptive pass adds to the sums kept there; pass 0 starts at zero, keeps the
+/// sums and takes the terms of its estimates on the way. One type for all, so that the
+/// tile's loop is compiled once a width (an instantiation each, the compiler no longer
+/// inlined the camera packet's trace into them: `quads` 4.8% more render instructions
+/// 8 wide, 6% scalar).
+enum TileOut<'a, 'b> {
+    /// Each pixel the mean of its `spp` samples.
     Means {
         rows: &'a mut [&'b mut [Vec3]],
         spp: f32,
     },
-    /// The tile's sums (`stride` a row) and the marks of an adaptive pass 0.
-    Sums {
-        sums: &'a mut [Vec3],
+    /// Sums kept from call to call.
+    Sums { rows: &'a mut [&'b mut [Vec3]] },
+    /// Adaptive pass 0 (samples `0..FIRST_PASS_SPP`): the sums, and the terms at 2 and
+    /// 4 samples into `terms` (`stride` a row; see `first_pass_tile`).
+    First {
+        rows: &'a mut [&'b mut [Vec3]],
+        terms: &'a mut [f32],
         stride: usize,
-        marks: &'a mut [Mark<'c>],
     },
 }
 
-impl TileOut<'_, '_, '_> {
+impl TileOut<'_, '_> {
     /// Whether `note` does anything.
     #[inline(always)]
     fn marked(&self) -> bool {
-        matches!(self, TileOut::Sums { marks, .. } if !marks.is_empty())
+        matches!(self, TileOut::First { .. })
     }
 
     /// The sums a packet's lanes start from (`active` lanes, lane k pixel `at(k)`).
     #[inline(always)]
     fn start<L: Lane>(&self, active: u32, at: impl Fn(usize) -> (u32, u32)) -> V3<L> {
         match self {
-            TileOut::Means { .. } => V3::splat(Vec3::ZERO),
-            TileOut::Sums { sums, stride, .. } => V3::from_fn(|k| {
+            TileOut::Means { .. } | TileOut::First { .. } => V3::splat(Vec3::ZERO),
+            TileOut::Sums { rows } => V3::from_fn(|k| {
                 if active >> k & 1 != 0 {
                     let (dx, dy) = at(k);
-                    sums[dy as usize * stride + dx as usize]
+                    rows[dy as usize][dx as usize]
                 } else {
                     Vec3::ZERO
                 }
@@ -551,22 +633,37 @@ impl TileOut<'_, '_, '_> {
     }
 
     /// After sample `s` of a packet's pixels (`active` lanes of `sum`, lane k pixel
-    /// `at(k)`): keep the sums a mark compares with, or write its terms.
+    /// `at(k)`): pass 0 keeps the sums at 1 and 2 samples (`halves`) and writes the
+    /// terms at 2 and 4.
     #[inline(always)]
     fn note<L: Lane>(
         &mut self,
         s: u32,
         sum: V3<L>,
-        halves: &mut [V3<L>; MAX_MARKS],
+        halves: &mut [V3<L>; 2],
         active: u32,
         at: impl Fn(usize) -> (u32, u32),
     ) {
-        if let TileOut::Sums { stride, marks, .. } = self {
-            let stride = *stride;
-            note_marks(marks, s, sum, halves, active, |k| {
-                let (dx, dy) = at(k);
-                dy as usize * stride + dx as usize
-            });
+        if let TileOut::First { terms, stride, .. } = self {
+            let (q, from) = match s {
+                0 => {
+                    halves[0] = sum;
+                    return;
+                }
+                1 => {
+                    let q = adaptive::pixel_term(sum, halves[0], 2, 1);
+                    halves[1] = sum;
+                    (q, 0)
+                }
+                3 => (adaptive::pixel_term(sum, halves[1], 4, 2), TERMS_AT4),
+                _ => return,
+            };
+            for k in 0..L::WIDTH {
+                if active >> k & 1 != 0 {
+                    let (dx, dy) = at(k);
+                    terms[from + dy as usize * *stride + dx as usize] = q.lane(k);
+                }
+            }
         }
     }
 
@@ -584,11 +681,19 @@ impl TileOut<'_, '_, '_> {
                     }
                 }
             }
-            TileOut::Sums { sums, stride, .. } => {
+            TileOut::Sums { rows } => {
                 for k in 0..L::WIDTH {
                     if active >> k & 1 != 0 {
                         let (dx, dy) = at(k);
-                        sums[dy as usize * *stride + dx as usize] = sum.lane(k);
+                        rows[dy as usize][dx as usize] = sum.lane(k);
+                    }
+                }
+            }
+            TileOut::First { rows, .. } => {
+                for k in 0..L::WIDTH {
+                    if active >> k & 1 != 0 {
+                        let (dx, dy) = at(k);
+                        rows[dy as usize][dx as usize] = sum.lane(k);
                     }
                 }
             }
@@ -624,54 +729,27 @@ fn tile_sums(
 
 /// A tile one ray at a time (the scalar reference): `sample_pixels` at `f32`, with the
 /// tile's camera cone, so a tile whose cone meets nothing makes no ray, as the packets'
-/// tiles do. A render of `spp` samples sums into a tile buffer too: the sums in lanes
-/// of `TileOut` cost its one inlined body 1% more instructions (`quads`, `spheres`).
+/// tiles do.
+#[inline(never)]
 fn accumulate_tile_scalar(
     tracer: &Tracer,
     tile: Rect,
     samples: std::ops::Range<u32>,
     out: &mut TileOut,
 ) -> RayCounts {
-    match out {
-        TileOut::Sums { sums, marks, .. } => scalar_sums(tracer, tile, samples, sums, marks),
-        TileOut::Means { rows, spp } => {
-            let mut sums = [Vec3::ZERO; (TILE * TILE) as usize];
-            let counts = scalar_sums(tracer, tile, samples, &mut sums, &mut []);
-            let stride = tile.width() as usize;
-            for (row, line) in rows.iter_mut().zip(sums.chunks_exact(stride)) {
-                for (pixel, sum) in row.iter_mut().zip(line) {
-                    *pixel = *sum / *spp;
-                }
-            }
-            counts
-        }
-    }
-}
-
-/// `accumulate_tile_scalar` into the sums `sums` (`tile.width()` a row), with `marks`.
-#[inline(never)]
-fn scalar_sums(
-    tracer: &Tracer,
-    tile: Rect,
-    samples: std::ops::Range<u32>,
-    sums: &mut [Vec3],
-    marks: &mut [Mark],
-) -> RayCounts {
     let mut counts = RayCounts::default();
     let cull = tracer.camera_cull(tile.x0, tile.y0, tile.x1, tile.y1);
-    let stride = tile.width() as usize;
-    for (y, row) in (tile.y0..tile.y1).zip(sums.chunks_exact_mut(stride)) {
-        for (x, sum) in (tile.x0..tile.x1).zip(row.iter_mut()) {
+    for y in tile.y0..tile.y1 {
+        for x in tile.x0..tile.x1 {
             let hashes = tracer.pixel_hashes::<f32>(x, y);
-            let at = (y - tile.y0) as usize * stride + (x - tile.x0) as usize;
-            let mut halves = [V3::<f32>::new(0.0, 0.0, 0.0); MAX_MARKS];
+            let at = |_| (x - tile.x0, y - tile.y0);
+            let mut sum = out.start::<f32>(1, at);
+            let mut halves = [V3::<f32>::new(0.0, 0.0, 0.0); 2];
             for s in samples.clone() {
-                *sum += tracer
-                    .sample_pixels::<f32>(x, y, &hashes, 1, s, cull, &mut counts)
-                    .lane(0);
-                let lanes = V3::new(sum.x, sum.y, sum.z);
-                note_marks(marks, s, lanes, &mut halves, 1, |_| at);
+                sum = sum + tracer.sample_pixels::<f32>(x, y, &hashes, 1, s, cull, &mut counts);
+                out.note(s, sum, &mut halves, 1, at);
             }
+            out.finish(sum, 1, at);
         }
     }
     counts
@@ -710,7 +788,7 @@ fn accumulate_tile_packets<L: Lane>(
             }
             let at = |k: usize| (px - x0 + k as u32 % fw, py - y0 + k as u32 / fw);
             let mut lanes = out.start::<L>(active, at);
-            let mut halves = [V3::<L>::splat(Vec3::ZERO); MAX_MARKS];
+            let mut halves = [V3::<L>::splat(Vec3::ZERO); 2];
             for s in samples.clone() {
                 lanes = lanes + tracer.sample_packet::<L>(px, py, active, s, cull, &mut counts);
                 out.note(s, lanes, &mut halves, active, at);
@@ -788,7 +866,7 @@ fn accumulate_tile_regrouped<L: Lane>(
     // The first sample decides whether the others regroup (`Regrouped::pays`); they are
     // added after it, so each pixel still sums its samples in sample order.
     let mut regroup = true;
-    let zero = [V3::<L>::splat(Vec3::ZERO); MAX_MARKS];
+    let zero = [V3::<L>::splat(Vec3::ZERO); 2];
     let mut halves = vec![zero; if out.marked() { packets.len() } else { 0 }];
     for s in samples.clone() {
         if !regroup {
@@ -873,13 +951,14 @@ mod tests {
         assert_eq!(bits(&film), bits(&whole.film.pixels));
     }
 
-    /// The terms an adaptive pass 0 takes on the way (`accumulate_tile_marked`) have the
-    /// bits of `pixel_term` over the sums of separate renders of 1, 2 and 4 samples, at
-    /// every packet width, for a tile inside the frame and one cut by its edge, through
-    /// the packets' path (`cornell`) and the regrouped one (a scene of path-traced
-    /// surfaces alone); and the sums at 4 are those of the separate render.
+    /// The terms an adaptive pass 0 takes on the way (`first_pass_tile`) have the bits of
+    /// `pixel_term` over the sums of separate renders of 1, 2 and 4 samples, at every
+    /// packet width, for a tile inside the frame and one cut by its edge, through the
+    /// packets' path (`cornell`) and the regrouped one (a scene of path-traced surfaces
+    /// alone); and its sums, written over what the rows held, are those of the separate
+    /// render of 4 samples.
     #[test]
-    fn marks_hold_the_terms_of_fewer_samples() {
+    fn pass_0_takes_the_terms_of_fewer_samples() {
         let glass = concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/benches/corpus/glass-cornell.toml"
@@ -927,24 +1006,17 @@ mod tests {
                             })
                             .collect()
                     };
-                    let (mut at2, mut at4) = (vec![f32::NAN; len], vec![f32::NAN; len]);
-                    let mut sums = vec![Vec3::ZERO; len];
-                    let mut marks = [
-                        Mark {
-                            n: 2,
-                            terms: &mut at2,
-                        },
-                        Mark {
-                            n: 4,
-                            terms: &mut at4,
-                        },
-                    ];
-                    accumulate_tile_marked(&tracer, width, tile, 0..4, &mut sums, &mut marks);
+                    let mut buffer = vec![f32::NAN; 2 * TERMS_AT4];
+                    let mut sums = vec![Vec3::NAN; len];
+                    let mut rows: Vec<&mut [Vec3]> =
+                        sums.chunks_mut(tile.width() as usize).collect();
+                    first_pass_tile(&tracer, width, tile, &mut rows, &mut buffer);
+                    let (at2, at4) = (&buffer[..len], &buffer[TERMS_AT4..TERMS_AT4 + len]);
                     let to_bits =
                         |t: &[f32]| -> Vec<u32> { t.iter().map(|t| t.to_bits()).collect() };
                     let what = format!("{name} {width:?} {tile:?}");
-                    assert_eq!(to_bits(&at2), terms(&two, &one, 2), "{what}");
-                    assert_eq!(to_bits(&at4), terms(&four, &two, 4), "{what}");
+                    assert_eq!(to_bits(at2), terms(&two, &one, 2), "{what}");
+                    assert_eq!(to_bits(at4), terms(&four, &two, 4), "{what}");
                     assert_eq!(bits(&sums), bits(&four), "{what}");
                     // The terms are not all zero: the test sees the estimate.
                     assert!(at4.iter().any(|&q| q > 0.0), "{what}");
