@@ -48,7 +48,7 @@
 use crate::error::{Error, Result};
 use crate::farm::region::{Rect, TILE};
 use crate::integrator::RayCounts;
-use crate::lanes::{Lane, V3};
+use crate::lanes::{Lane, Mask, V3};
 use crate::metrics::REL_MSE_EPSILON;
 use crate::sampling::SamplerKind;
 use glam::Vec3;
@@ -326,9 +326,14 @@ fn raw_estimate(rows: &[&mut [Vec3]], half: &[Vec3], n: u32, a: u32) -> f64 {
 /// `a`: their mean over the channels, times a/b. Each group of 16 pixels summed in f32
 /// in pixel order, the groups in f64: the same bits at every packet width.
 fn raw_of_terms(terms: &[f32], n: u32, a: u32) -> f64 {
+    // A whole group as an array, so that its sum is unrolled (the same order).
+    let group_sum = |group: &[f32]| match <&[f32; TILE as usize]>::try_from(group) {
+        Ok(group) => group.iter().sum::<f32>(),
+        Err(_) => group.iter().sum::<f32>(),
+    };
     let total: f64 = terms
         .chunks(TILE as usize)
-        .map(|group| group.iter().sum::<f32>() as f64)
+        .map(|group| group_sum(group) as f64)
         .sum();
     total * (a as f64 / (n - a) as f64) / (3 * terms.len()).max(1) as f64
 }
@@ -343,13 +348,26 @@ fn raw_of_terms(terms: &[f32], n: u32, a: u32) -> f64 {
 pub(crate) fn pixel_term<L: Lane>(sum: V3<L>, half: V3<L>, n: u32, a: u32) -> L {
     let (to_mean, to_half_mean) = (L::splat(1.0 / n as f32), L::splat(1.0 / a as f32));
     let (epsilon, huge) = (L::splat(REL_MSE_EPSILON as f32), L::splat(2f32.powi(60)));
-    let term = |sum: L, half: L| {
+    let mean = |sum: L, half: L| {
         let m = sum * to_mean;
-        let d = m - half * to_half_mean;
-        let r = d / m;
-        L::select(m.abs().gt(huge), r * r, d * d / (m * m + epsilon))
+        (m, m - half * to_half_mean)
     };
-    term(sum.x, half.x) + term(sum.y, half.y) + term(sum.z, half.z)
+    let (x, y, z) = (
+        mean(sum.x, half.x),
+        mean(sum.y, half.y),
+        mean(sum.z, half.z),
+    );
+    let term = |(m, d): (L, L)| d * d / (m * m + epsilon);
+    // The quotient of the overflow's case only where a lane needs it: the same bits.
+    if (x.0.abs().gt(huge) | y.0.abs().gt(huge) | z.0.abs().gt(huge)).any() {
+        let term = |(m, d): (L, L)| {
+            let r = d / m;
+            L::select(m.abs().gt(huge), r * r, term((m, d)))
+        };
+        term(x) + term(y) + term(z)
+    } else {
+        term(x) + term(y) + term(z)
+    }
 }
 
 pub(crate) fn intersect(a: Rect, b: Rect) -> Rect {
