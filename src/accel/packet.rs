@@ -204,14 +204,21 @@ impl<L: Lane> RayPacket<L> {
     /// the vertices (triangles are then tested one lane at a time by the scalar test,
     /// which makes its own constants). Made at a packet's first triangle or quad test
     /// (`LazyTriangles`): most `bunny` packets never reach one, and these are three
-    /// divisions a packet. Inlined into `LazyTriangles::make`, which stores them in
-    /// place: returned, they were copied twice (`OnceCell`), a 450-byte memcpy each.
+    /// divisions a packet. Inlined into `LazyTriangles::make`, and written into its slot
+    /// `out`: returned, they were copied twice (`OnceCell`), a 450-byte memcpy each.
+    ///
+    /// The lanes whose axes differ take their constants out of line (`per_lane_lanes`).
+    /// Inline, the two cases' `Order`s (axes in one, masks in the other, in the same
+    /// bytes) were assembled on the stack and copied out by loads that straddled their
+    /// stores: a store-forwarding stall on every packet at 16 lanes, whose masks are
+    /// 2-byte `k` registers (half of `make`'s time there, `perf annotate`).
     #[inline(always)]
     fn triangle_lanes<'a>(
         &self,
         pool: &'a TrianglePool,
         quads: bool,
-    ) -> Option<TriangleLanes<'a, L>> {
+        out: &mut Option<TriangleLanes<'a, L>>,
+    ) {
         let uniform = uniform::<L>;
         let (zero, one) = (L::splat(0.0), L::splat(1.0));
         let (dir, origin) = (self.dir, self.origin);
@@ -234,7 +241,7 @@ impl<L: Lane> RayPacket<L> {
             } else {
                 [(kz + 1) % 3, (kz + 2) % 3, kz]
             };
-            return Some(TriangleLanes {
+            *out = Some(TriangleLanes {
                 // No columns without triangles (quad-only scenes): nine slices checked.
                 order: Order::Uniform(axes, (!pool.is_empty()).then(|| pool.columns(axes))),
                 origin: [o[kx], o[ky], o[kz]],
@@ -242,14 +249,25 @@ impl<L: Lane> RayPacket<L> {
                 sy: d[ky] / d[kz],
                 sz: one / d[kz],
             });
+        } else if quads {
+            self.per_lane_lanes([kz_x, kz_y], out);
+        } else {
+            *out = None;
         }
-        if !quads {
-            return None;
-        }
+    }
+
+    /// `triangle_lanes` where the lanes order the axes differently (`kz_x`, `kz_y`: the
+    /// lanes whose kz is x, and y): each lane's order as masks.
+    #[inline(never)]
+    fn per_lane_lanes(&self, [kz_x, kz_y]: [L::Mask; 2], out: &mut Option<TriangleLanes<'_, L>>) {
+        let one = L::splat(1.0);
+        let (dir, origin) = (self.dir, self.origin);
+        let d = [dir.x, dir.y, dir.z];
+        let o = [origin.x, origin.y, origin.z];
         // `WatertightRay::axes` lane by lane: kz, then kx and ky the next two axes in
         // cyclic order, swapped where d[kz] < 0.
         let kz_z = !(kz_x | kz_y);
-        let neg = pick(d, [kz_x, kz_y]).lt(zero);
+        let neg = pick(d, [kz_x, kz_y]).lt(L::splat(0.0));
         let pos = !neg;
         let picks = [
             [(kz_y & neg) | (kz_z & pos), (kz_x & pos) | (kz_z & neg)],
@@ -257,13 +275,13 @@ impl<L: Lane> RayPacket<L> {
             [kz_x, kz_y],
         ];
         let (dx, dy, dz) = (pick(d, picks[0]), pick(d, picks[1]), pick(d, picks[2]));
-        Some(TriangleLanes {
+        *out = Some(TriangleLanes {
             order: Order::PerLane(picks),
             origin: [pick(o, picks[0]), pick(o, picks[1]), pick(o, picks[2])],
             sx: dx / dz,
             sy: dy / dz,
             sz: one / dz,
-        })
+        });
     }
 
     /// The sphere test on every lane, `SpherePool::intersect`'s bits: distances and the
@@ -785,7 +803,8 @@ impl<'a, L: Lane> LazyTriangles<'a, L> {
 
     #[inline(never)]
     fn make(&mut self) {
-        self.lanes = self.packet.triangle_lanes(self.tri, self.quads);
+        self.packet
+            .triangle_lanes(self.tri, self.quads, &mut self.lanes);
         self.made = true;
     }
 }

@@ -6,6 +6,7 @@
 use super::{Aabb, Ray};
 use crate::lanes::{Lane, V3};
 use glam::{Vec3, Vec4};
+use std::marker::PhantomData;
 
 /// Triangles, structure-of-arrays, stored as their three vertices, each vertex as one
 /// array per axis: `a[axis][i]`. The watertight test reads the axes in the order its ray
@@ -147,11 +148,13 @@ fn load4_tail(values: &[f32], start: usize, n: usize) -> Vec4 {
 /// The pool's nine vertex columns (a, b, c; each in a ray's axis order kx, ky, kz),
 /// resolved once a ray or packet instead of at every test: through the pool each read
 /// costs an axis check, two pointer loads and a bounds check (callgrind: a third of a
-/// packet's triangle test).
+/// packet's triangle test). One length for the nine: as slices they were eighteen words
+/// to store on every ray or packet that reaches a triangle, nine of them the same length.
 #[derive(Clone, Copy, Debug)]
 pub struct Columns<'s> {
-    cols: [&'s [f32]; 9],
+    cols: [*const f32; 9],
     len: usize,
+    pool: PhantomData<&'s [f32]>,
 }
 
 impl<'s> Columns<'s> {
@@ -159,8 +162,15 @@ impl<'s> Columns<'s> {
     #[inline(always)]
     pub fn at(&self, m: usize, i: usize) -> f32 {
         assert!(i < self.len);
-        // SAFETY: every column has `len` elements (`TrianglePool::columns`).
-        unsafe { *self.cols[m].get_unchecked(i) }
+        // SAFETY: every column has `len` elements (`TrianglePool::columns`), borrowed for 's.
+        unsafe { *self.cols[m].add(i) }
+    }
+
+    /// Column `m` as the slice it points into.
+    #[inline(always)]
+    fn column(&self, m: usize) -> &'s [f32] {
+        // SAFETY: every column has `len` elements (`TrianglePool::columns`), borrowed for 's.
+        unsafe { std::slice::from_raw_parts(self.cols[m], self.len) }
     }
 
     /// `load4` of column `m`.
@@ -168,9 +178,9 @@ impl<'s> Columns<'s> {
     fn load4(&self, m: usize, start: usize, n: usize) -> Vec4 {
         if start + 4 <= self.len {
             // SAFETY: start + 4 ≤ len, the length of every column.
-            Vec4::from_slice(unsafe { self.cols[m].get_unchecked(start..start + 4) })
+            Vec4::from_slice(unsafe { self.column(m).get_unchecked(start..start + 4) })
         } else {
-            load4_tail(self.cols[m], start, n)
+            load4_tail(self.column(m), start, n)
         }
     }
 }
@@ -183,7 +193,11 @@ impl TrianglePool {
         let pools = [&self.a, &self.b, &self.c];
         let cols: [&[f32]; 9] = std::array::from_fn(|m| &pools[m / 3][[kx, ky, kz][m % 3]][..]);
         assert!(cols.iter().all(|c| c.len() == len));
-        Columns { cols, len }
+        Columns {
+            cols: cols.map(<[f32]>::as_ptr),
+            len,
+            pool: PhantomData,
+        }
     }
 }
 
