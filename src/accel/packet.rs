@@ -170,18 +170,23 @@ impl<L: Lane> RayPacket<L> {
         let inv = [one / dir.x, one / dir.y, one / dir.z];
         let (near_scale, far_scale) = (L::splat(NEAR_SCALE), L::splat(FAR_SCALE));
         let negative = inv.map(|x| x.lt(zero));
-        let uniform_sign = negative.map(|m| uniform::<L>(m.bits()));
+        let bits = negative.map(|m| m.bits());
+        // From the bits, not by matching `uniform_sign`: the match stored its three
+        // bytes one by one and read them back as one word (a store-forwarding stall on
+        // every packet at 16 lanes).
+        let all = (1u32 << L::WIDTH) - 1;
+        let box_rows = bits
+            .iter()
+            .all(|&b| b == 0 || b == all)
+            .then(|| plane_rows(bits.map(|b| usize::from(b != 0))));
         Self {
             active,
             origin,
             dir,
             inv_near: inv.map(|x| x * near_scale),
             inv_far: inv.map(|x| x * far_scale),
-            uniform_sign,
-            box_rows: match uniform_sign {
-                [Some(x), Some(y), Some(z)] => Some(plane_rows([x, y, z].map(usize::from))),
-                _ => None,
-            },
+            uniform_sign: bits.map(uniform::<L>),
+            box_rows,
             negative,
             sphere_a,
             sphere_inv_a: one / sphere_a,
