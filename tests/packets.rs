@@ -301,7 +301,9 @@ material = "m"
 
 /// Sixteen rays of one kind: 0 random, 1 aimed at the scene, 2 axis-parallel with ±0
 /// components, 3 starting exactly on a surface (a hit point, no offset), 4 pointing away
-/// from the scene (miss everything); 5 a coherent bundle (like camera rays).
+/// from the scene (miss everything); 5 a coherent bundle (like camera rays); 6 one origin,
+/// a wide frustum; 7 from origins all around, aimed exactly at points on the boxes'
+/// edges (quads' edge functions near zero, with each lane's axes its own).
 fn packet_rays(scene: &Scene, accel: &Accel, kind: u8, seed: u64) -> [Ray; MAX_WIDTH] {
     let mut rng = Rng(seed);
     // The small objects' region (the ground sphere's bounds would swallow it).
@@ -343,11 +345,35 @@ fn packet_rays(scene: &Scene, accel: &Accel, kind: u8, seed: u64) -> [Ray; MAX_W
             let jitter = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * ext * 0.05;
             Ray::new(base, (aim + jitter - base).normalize_or(Vec3::X))
         }
-        _ => {
+        6 => {
             // One origin, directions spread over one octant: a wide frustum
             // (`Frustum` in `accel::packet`).
             let d = rng.unit_vector().abs().max(Vec3::splat(1e-3)) * octant;
             Ray::new(base, d.normalize())
+        }
+        _ => {
+            // A box of `mixed_scene`, its corners as the scene's text has them.
+            let k = (rng.next_u64() % 4) as f32;
+            let lo = Vec3::new(-0.25 + 0.12 * k, -0.03, -0.25);
+            let hi = Vec3::new(lo.x + 0.05, lo.y + 0.04, lo.z + 0.07);
+            let along = (rng.next_u64() % 3) as usize;
+            let corner = |axis: usize, rng: &mut Rng| {
+                if rng.next_u64().is_multiple_of(2) {
+                    lo[axis]
+                } else {
+                    hi[axis]
+                }
+            };
+            let mut p = Vec3::ZERO;
+            for axis in 0..3 {
+                p[axis] = if axis == along {
+                    lo[axis] + rng.f32() * (hi[axis] - lo[axis])
+                } else {
+                    corner(axis, &mut rng)
+                };
+            }
+            let o = centre + rng.unit_vector() * 0.6;
+            Ray::new(o, (p - o).normalize_or(Vec3::X))
         }
     })
 }
@@ -417,7 +443,7 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
 
     #[test]
-    fn packets_return_the_scalar_answers(kind in 0u8..7, seed: u64, mask in 1u32..65536) {
+    fn packets_return_the_scalar_answers(kind in 0u8..8, seed: u64, mask in 1u32..65536) {
         let (scene, accel) = mixed_scene();
         let rays = packet_rays(scene, accel, kind, seed);
         check_packet::<F32x16>(&rays, mask)?;
@@ -436,7 +462,7 @@ fn packet_rays_cover_hits_of_every_kind() {
     let mut s = TraversalStats::default();
     let mut kinds = std::collections::HashSet::new();
     let (mut hits, mut misses) = (0, 0);
-    for kind in 0..7 {
+    for kind in 0..8 {
         for seed in 0..50 {
             for r in packet_rays(scene, accel, kind, seed) {
                 match accel.closest_hit(Context::new(scene, &mut s), &r, T_MIN, f32::INFINITY) {
