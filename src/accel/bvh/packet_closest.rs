@@ -472,10 +472,11 @@ impl Bvh {
                 // is inverted and never hit): which children a packet enters is a coin
                 // toss for the branch predictor, so it is asked once, as a 4-bit mask.
                 let t_min_l = L::splat(t_min);
-                let tested: [(L, u32); 4] = std::array::from_fn(|c| {
+                let test = |c| {
                     let (entry, bits) = p.test_child(node, c, t_min_l, t_max);
                     (entry, bits & lanes)
-                });
+                };
+                let tested: [(L, u32); 4] = [test(0), test(1), test(2), test(3)];
                 let entered = tested
                     .iter()
                     .enumerate()

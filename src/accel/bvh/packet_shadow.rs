@@ -323,8 +323,8 @@ impl Bvh {
                 let t_max_l = in_play(lanes, t_max);
                 // As in `closest_hit_packet`: the four boxes, then one mask.
                 let t_min_l = L::splat(t_min);
-                let tested: [u32; 4] =
-                    std::array::from_fn(|c| p.test_child(node, c, t_min_l, t_max_l).1 & lanes);
+                let test = |c| p.test_child(node, c, t_min_l, t_max_l).1 & lanes;
+                let tested: [u32; 4] = [test(0), test(1), test(2), test(3)];
                 let entered = tested
                     .iter()
                     .enumerate()
