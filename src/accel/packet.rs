@@ -499,6 +499,19 @@ impl<L: Lane> RayPacket<L> {
         (L::WIDTH >= 8) as u32
     }
 
+    /// `fallback` for shadow packets: none at 8 lanes, a lone lane at 16. A lone lane
+    /// of 8 finished in the packet costs more instructions (`lights-over-bunny` +12%,
+    /// callgrind) but less time, the packet's masks taking the place of the scalar
+    /// traversal's branches: 8 wide, one thread, medians of 7 alternated rounds, Zen 4,
+    /// `lights-over-bunny` 1.08x (AVX2 build 1.05x), `big-mesh-close` 1.08x (1.07x),
+    /// `bunny` 1.01x (1.04x), `bunny-light` 0.98x, the built-ins' others and
+    /// `triangle-light`, `box-light` within 1%. At 16 a lone lane still pays:
+    /// `big-mesh-far` and `triangle-light` 0.94x without it.
+    #[inline]
+    pub fn shadow_fallback() -> u32 {
+        (L::WIDTH >= 16) as u32
+    }
+
     /// Entry distances and hit lanes of one box, for lanes with `t_max` (−∞ for lanes not
     /// tested).
     #[inline(always)]

@@ -297,7 +297,7 @@ impl Bvh {
         if entered == 0 {
             return occluded;
         }
-        let fallback = RayPacket::<L>::fallback();
+        let fallback = RayPacket::<L>::shadow_fallback();
         let mut slots = MaybeUninit::<[_; STACK4]>::uninit();
         let mut stack = TraversalStack::new(&mut slots);
         stack.push((root, entered));
