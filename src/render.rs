@@ -857,8 +857,8 @@ fn accumulate_tile_regrouped<L: Lane>(
     let taken = samples.len() as u64;
     let (cone_prims, cone_tree) = cull.skipped(tracer.accel);
     let at = |px: u32, py: u32, k: usize| (px - x0 + k as u32 % fw, py - y0 + k as u32 / fw);
-    let mut packets = Vec::new();
-    let mut lanes = Vec::new();
+    let n = ((x1 - x0).div_ceil(fw) * (y1 - y0).div_ceil(fh)) as usize;
+    let (mut packets, mut lanes) = (Vec::with_capacity(n), Vec::with_capacity(n));
     for py in (y0..y1).step_by(fh as usize) {
         for px in (x0..x1).step_by(fw as usize) {
             let mut active = 0u32;
@@ -881,7 +881,7 @@ fn accumulate_tile_regrouped<L: Lane>(
         }
     }
     let mut colors = vec![V3::<L>::splat(Vec3::ZERO); packets.len()];
-    let mut work = Regrouping::<L>::default();
+    let mut work = Regrouping::<L>::with_capacity(n);
     // The first sample decides whether the others regroup (`Regrouped::pays`); they are
     // added after it, so each pixel still sums its samples in sample order.
     let mut regroup = true;

@@ -56,9 +56,17 @@ impl Regrouped {
 
 impl<L: Lane> Default for Regrouping<L> {
     fn default() -> Self {
+        Self::with_capacity(0)
+    }
+}
+
+impl<L: Lane> Regrouping<L> {
+    /// Room for a tile of `packets` packets: a tile never holds more groups than it has
+    /// packets, so its samples grow no vector.
+    pub fn with_capacity(packets: usize) -> Self {
         Self {
-            groups: Vec::new(),
-            next: Vec::new(),
+            groups: Vec::with_capacity(packets),
+            next: Vec::with_capacity(packets),
         }
     }
 }
