@@ -54,12 +54,6 @@ impl Regrouped {
     }
 }
 
-impl<L: Lane> Default for Regrouping<L> {
-    fn default() -> Self {
-        Self::with_capacity(0)
-    }
-}
-
 impl<L: Lane> Regrouping<L> {
     /// Room for a tile of `packets` packets: a tile never holds more groups than it has
     /// packets, so its samples grow no vector.
@@ -307,7 +301,7 @@ mod tests {
             })
             .collect();
         let mut out = vec![V3::<L>::splat(glam::Vec3::ZERO); packets.len()];
-        let mut work = Regrouping::default();
+        let mut work = Regrouping::with_capacity(packets.len());
         let mut counts = RayCounts::default();
         for sample in 0..2 {
             let saved =
