@@ -63,23 +63,33 @@ fn is_root() -> bool {
         .unwrap_or(false)
 }
 
+/// `nobody`'s user id, which the unprivileged runs take.
+const NOBODY: u32 = 65534;
+
+/// A user id of no account and of no other test's process, for the run under a process
+/// limit: the limit counts every process and thread of its user, so a test running as
+/// `nobody` beside it (they run in parallel) would take the room it leaves.
+const LIMITED_USER: u32 = 65533;
+
 /// The binary with `args` in `dir`, as `nobody` when this test runs as root (`None`
 /// where that needs `setpriv` and there is none), after `limit` (a `prlimit` option).
 fn unprivileged(dir: &Path, limit: Option<&str>, args: &[&str]) -> Option<Command> {
+    unprivileged_as(NOBODY, dir, limit, args)
+}
+
+/// `unprivileged` as user `uid` (and group of the same number) when run as root.
+fn unprivileged_as(uid: u32, dir: &Path, limit: Option<&str>, args: &[&str]) -> Option<Command> {
     let mut words: Vec<String> = Vec::new();
     if is_root() {
         if !has_tool("setpriv") {
             return None;
         }
-        words.extend(
-            [
-                "setpriv",
-                "--reuid=65534",
-                "--regid=65534",
-                "--clear-groups",
-            ]
-            .map(String::from),
-        );
+        words.extend([
+            "setpriv".to_string(),
+            format!("--reuid={uid}"),
+            format!("--regid={uid}"),
+            "--clear-groups".to_string(),
+        ]);
     }
     if let Some(limit) = limit {
         words.extend(["prlimit".to_string(), limit.to_string()]);
@@ -262,7 +272,8 @@ fn a_process_limit_is_an_error_or_fewer_threads() {
     let render = ["spheres", "--width", "16", "--spp", "2"];
     let run = |limit: &str, extra: &[&str]| {
         let args: Vec<&str> = render.iter().chain(extra).copied().collect();
-        unprivileged(dir.path(), Some(limit), &args).map(|mut c| c.output().unwrap())
+        unprivileged_as(LIMITED_USER, dir.path(), Some(limit), &args)
+            .map(|mut c| c.output().unwrap())
     };
     let Some(out) = run("--nproc=2", &["-o", "two.png"]) else {
         eprintln!("skipped: no setpriv here to drop root");
@@ -270,7 +281,7 @@ fn a_process_limit_is_an_error_or_fewer_threads() {
     };
     assert_refused(&out, &["cannot start"]);
     // --list needs no thread but the main one.
-    let list = unprivileged(dir.path(), Some("--nproc=1"), &["--list"])
+    let list = unprivileged_as(LIMITED_USER, dir.path(), Some("--nproc=1"), &["--list"])
         .unwrap()
         .output()
         .unwrap();
