@@ -303,7 +303,8 @@ material = "m"
 /// components, 3 starting exactly on a surface (a hit point, no offset), 4 pointing away
 /// from the scene (miss everything); 5 a coherent bundle (like camera rays); 6 one origin,
 /// a wide frustum; 7 from origins all around, aimed exactly at points on the boxes'
-/// edges (quads' edge functions near zero, with each lane's axes its own).
+/// edges (quads' edge functions near zero, with each lane's axes its own); 8 the same at
+/// the bunny's vertices and points of its edges (triangles' edge functions near zero).
 fn packet_rays(scene: &Scene, accel: &Accel, kind: u8, seed: u64) -> [Ray; MAX_WIDTH] {
     let mut rng = Rng(seed);
     // The small objects' region (the ground sphere's bounds would swallow it).
@@ -350,6 +351,17 @@ fn packet_rays(scene: &Scene, accel: &Accel, kind: u8, seed: u64) -> [Ray; MAX_W
             // (`Frustum` in `accel::packet`).
             let d = rng.unit_vector().abs().max(Vec3::splat(1e-3)) * octant;
             Ray::new(base, d.normalize())
+        }
+        8 => {
+            let n = scene.triangles.len() as u64;
+            let v = scene.triangles.vertices((rng.next_u64() % n) as usize);
+            let (a, b) = (
+                v[(rng.next_u64() % 3) as usize],
+                v[(rng.next_u64() % 3) as usize],
+            );
+            let p = a + (b - a) * rng.f32();
+            let o = centre + rng.unit_vector() * 0.6;
+            Ray::new(o, (p - o).normalize_or(Vec3::X))
         }
         _ => {
             // A box of `mixed_scene`, its corners as the scene's text has them.
@@ -443,7 +455,7 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
 
     #[test]
-    fn packets_return_the_scalar_answers(kind in 0u8..8, seed: u64, mask in 1u32..65536) {
+    fn packets_return_the_scalar_answers(kind in 0u8..9, seed: u64, mask in 1u32..65536) {
         let (scene, accel) = mixed_scene();
         let rays = packet_rays(scene, accel, kind, seed);
         check_packet::<F32x16>(&rays, mask)?;
@@ -462,7 +474,7 @@ fn packet_rays_cover_hits_of_every_kind() {
     let mut s = TraversalStats::default();
     let mut kinds = std::collections::HashSet::new();
     let (mut hits, mut misses) = (0, 0);
-    for kind in 0..8 {
+    for kind in 0..9 {
         for seed in 0..50 {
             for r in packet_rays(scene, accel, kind, seed) {
                 match accel.closest_hit(Context::new(scene, &mut s), &r, T_MIN, f32::INFINITY) {

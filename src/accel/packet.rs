@@ -204,12 +204,10 @@ impl<L: Lane> RayPacket<L> {
     }
 
     /// `WatertightRay::new`'s constants lane-wise. When every lane picks the same axes,
-    /// with that order and the triangle columns in it; else (only for a scene with quads:
-    /// `None` without) with each lane's order as masks, through which the quad test reads
-    /// the vertices (triangles are then tested one lane at a time by the scalar test,
-    /// which makes its own constants). Made at a packet's first triangle or quad test
-    /// (`LazyTriangles`): most `bunny` packets never reach one, and these are three
-    /// divisions a packet. Inlined into `LazyTriangles::make`, and written into its slot
+    /// with that order and the triangle columns in it; else with each lane's order as
+    /// masks, through which the triangle and quad tests read the vertices. Made at a
+    /// packet's first triangle or quad test (`LazyTriangles`): most `bunny` packets never
+    /// reach one, and these are three divisions a packet. Inlined into `LazyTriangles::make`, and written into its slot
     /// `out`: returned, they were copied twice (`OnceCell`), a 450-byte memcpy each.
     ///
     /// The lanes whose axes differ take their constants out of line (`per_lane_lanes`).
@@ -218,12 +216,7 @@ impl<L: Lane> RayPacket<L> {
     /// stores: a store-forwarding stall on every packet at 16 lanes, whose masks are
     /// 2-byte `k` registers (half of `make`'s time there, `perf annotate`).
     #[inline(always)]
-    fn triangle_lanes<'a>(
-        &self,
-        pool: &'a TrianglePool,
-        quads: bool,
-        out: &mut Option<TriangleLanes<'a, L>>,
-    ) {
+    fn triangle_lanes<'a>(&self, pool: &'a TrianglePool, out: &mut Option<TriangleLanes<'a, L>>) {
         let uniform = uniform::<L>;
         let (zero, one) = (L::splat(0.0), L::splat(1.0));
         let (dir, origin) = (self.dir, self.origin);
@@ -254,10 +247,8 @@ impl<L: Lane> RayPacket<L> {
                 sy: d[ky] / d[kz],
                 sz: one / d[kz],
             });
-        } else if quads {
-            self.per_lane_lanes([kz_x, kz_y], out);
         } else {
-            *out = None;
+            self.per_lane_lanes([kz_x, kz_y], out);
         }
     }
 
@@ -454,7 +445,6 @@ impl<L: Lane> RayPacket<L> {
     /// (8 wide, callgrind).
     #[inline(never)]
     fn quad_edges(tris: &mut LazyTriangles<'_, L>, q: &[[f32; 3]; 4], near: u32) -> (u32, u32) {
-        // A scene with quads always gets the lanes; `None` would redo every lane.
         match tris.get(PrimKind::Quad) {
             Some(tri) => tri.quad_edges(q, near),
             None => (0, near),
@@ -568,8 +558,8 @@ impl<L: Lane> RayPacket<L> {
     }
 
     /// Distances and hit lanes (of `lanes`) of one primitive, with `t_max` per lane.
-    /// Triangle and quad lanes whose (outer) edge function rounds to zero, or packets whose
-    /// lanes order the axes differently, are tested one lane at a time by the scalar test.
+    /// Triangle and quad lanes whose (outer) edge function rounds to zero are tested one
+    /// lane at a time by the scalar test.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn test_prim(
@@ -635,6 +625,13 @@ impl<L: Lane> RayPacket<L> {
                         watertight_distance([u, v, w], a, b, c, tri.sz, t_min_l, t_max_l);
                     (t, hit.bits() & !exact_zero, exact_zero)
                 }
+                Some(
+                    tri @ TriangleLanes {
+                        order: Order::PerLane(_),
+                        ..
+                    },
+                ) => tri.pool_triangle(&scene.triangles, i, [t_min_l, t_max_l], lanes),
+                // No columns (no triangle in the pool): never asked.
                 _ => (L::splat(0.0), 0, lanes),
             },
         };
@@ -738,6 +735,22 @@ impl<L: Lane> TriangleLanes<'_, L> {
 }
 
 impl<L: Lane> TriangleLanes<'_, L> {
+    /// `triangle` for triangle `i` of `pool`, for lanes that order the axes differently
+    /// (each lane picks its own axes from the vertices). Out of line: inlined into the
+    /// packet loops, where it is rare, it cost `bunny` 0.6% more render instructions and
+    /// `big-mesh-far` 2.7% at 16 wide (callgrind) though neither takes it.
+    #[inline(never)]
+    fn pool_triangle(
+        &self,
+        pool: &TrianglePool,
+        i: usize,
+        window: [L; 2],
+        lanes: u32,
+    ) -> (L, u32, u32) {
+        let v = |c: &[Vec<f32>; 3]| [c[0][i], c[1][i], c[2][i]];
+        self.triangle(&[v(&pool.a), v(&pool.b), v(&pool.c)], window, lanes)
+    }
+
     /// The watertight test of the triangle with vertices `v` on the lanes of `lanes`, in
     /// `[t_min, t_max]`: distances, the lanes that hit, and those whose edge function
     /// rounds to zero, which the scalar test must redo (not in the second mask). The
@@ -789,7 +802,6 @@ fn pick<L: Lane>(v: [L; 3], [is_x, is_y]: [L::Mask; 2]) -> L {
 pub(crate) struct LazyTriangles<'a, L: Lane> {
     packet: &'a RayPacket<L>,
     tri: &'a TrianglePool,
-    quads: bool,
     made: bool,
     lanes: Option<TriangleLanes<'a, L>>,
 }
@@ -800,14 +812,12 @@ impl<'a, L: Lane> LazyTriangles<'a, L> {
         Self {
             packet,
             tri: &scene.triangles,
-            quads: !scene.quads.is_empty(),
             made: false,
             lanes: None,
         }
     }
 
-    /// The watertight lanes for a triangle or quad test (`None` for spheres, or when the
-    /// lanes order the axes differently in a scene without quads).
+    /// The watertight lanes for a triangle or quad test (`None` only for spheres).
     #[inline(always)]
     fn get(&mut self, kind: PrimKind) -> Option<&TriangleLanes<'a, L>> {
         if kind == PrimKind::Sphere {
@@ -821,8 +831,7 @@ impl<'a, L: Lane> LazyTriangles<'a, L> {
 
     #[inline(never)]
     fn make(&mut self) {
-        self.packet
-            .triangle_lanes(self.tri, self.quads, &mut self.lanes);
+        self.packet.triangle_lanes(self.tri, &mut self.lanes);
         self.made = true;
     }
 }
