@@ -684,12 +684,15 @@ material = "m"
 /// The shadow candidates keep every occluder: packets of shadow rays from points on the
 /// surfaces (hit points, no offset, as near to the primitives as origins come) and from
 /// points in the air, to samples of each light, see their light in exactly the lanes the
-/// tree's traversal says, with only the candidates tested. And the candidates leave
-/// primitives out (else the test would prove nothing).
+/// tree's traversal says, with only the candidates tested: in two small scenes, and in
+/// one with a tree (the bunny on a floor quad under three sphere lights and a quad light:
+/// the spheres and quads beside the tree, and the tree as one box). And the candidates
+/// leave primitives out (else the test would prove nothing).
 #[test]
 fn shadow_candidates_keep_every_occluder() {
-    use raytracer::accel::shadow::{origins_box, ShadowBoxes};
+    use raytracer::accel::shadow::{origins_box, Among, ShadowBoxes};
     use raytracer::lanes::V3;
+    let (mut tree_kept, mut tree_left) = (0, 0);
     for (name, (scene, accel)) in [
         ("candidates", candidates_scene()),
         ("cornell", {
@@ -697,9 +700,41 @@ fn shadow_candidates_keep_every_occluder() {
             let a = Accel::build(&mut s, AccelKind::Bvh);
             (s, a)
         }),
+        ("lights-over-bunny", {
+            let path = concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/benches/corpus/lights-over-bunny.toml"
+            );
+            let mut s = Scene::load(path, Default::default()).unwrap();
+            let a = Accel::build(&mut s, AccelKind::Bvh);
+            (s, a)
+        }),
     ] {
-        let n = scene.primitive_count();
-        let boxes = ShadowBoxes::new(&scene).expect("a small scene");
+        let bvh = accel.bvh().expect("a BVH");
+        // The boxes' numbering: every primitive, or those beside the tree and the tree.
+        let (boxes, objects): (_, Vec<u32>) = match ShadowBoxes::new(&scene) {
+            Some(b) => {
+                let objects = (scene.spheres.objects().iter())
+                    .chain(&scene.quads.object)
+                    .chain(&scene.triangles.object)
+                    .copied()
+                    .collect();
+                (b, objects)
+            }
+            None => {
+                let tree = bvh.root.map(|_| bvh.tree_box);
+                let b = ShadowBoxes::beside(&scene, &bvh.linear, tree).expect("few beside");
+                let [s, q, t] = bvh.linear.clone();
+                let objects = (scene.spheres.objects()[s].iter())
+                    .chain(&scene.quads.object[q])
+                    .chain(&scene.triangles.object[t])
+                    .copied()
+                    .chain(tree.map(|_| u32::MAX))
+                    .collect();
+                (b, objects)
+            }
+        };
+        let n = objects.len();
         let mut s = TraversalStats::default();
         let mut rng = Rng(n as u64);
         let (mut lanes_tested, mut occluded, mut visible, mut left_out) = (0, 0, 0, 0);
@@ -725,12 +760,11 @@ fn shadow_candidates_keep_every_occluder() {
                 let Some(among) = boxes.candidates(li, &region) else {
                     continue;
                 };
-                let own = (scene.spheres.objects().iter())
-                    .chain(&scene.quads.object)
-                    .chain(&scene.triangles.object)
-                    .filter(|&&o| o == light.object)
-                    .count();
+                let own = objects.iter().filter(|&&o| o == light.object).count();
                 left_out += n - own - among.len();
+                if let Among::Beside { tree, .. } = among {
+                    *if tree { &mut tree_kept } else { &mut tree_left } += 1;
+                }
                 let mut u = || f32x8::from_fn(|_| rng.f32());
                 let (a, b, c) = (u(), u(), u());
                 let targets = light.sample_lanes(a, b, c);
@@ -770,4 +804,9 @@ fn shadow_candidates_keep_every_occluder() {
             "{name}: the candidates left only {left_out} out"
         );
     }
+    // The tree is left out of some packets' tests and kept in others'.
+    assert!(
+        tree_kept > 1000 && tree_left > 1000,
+        "tree kept {tree_kept} times, left out {tree_left}"
+    );
 }

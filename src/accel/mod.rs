@@ -24,7 +24,7 @@ use bvh::{Bvh, ShadowLanes};
 pub use instances::InstanceTree;
 use linear::LinearScan;
 use packet::{PacketHits, RayPacket};
-use shadow::Candidates;
+use shadow::Among;
 
 /// Rays that reach a traversal are finite: a NaN or infinite origin or direction makes
 /// the slab test read every plane as "no constraint", so every slot of a node is
@@ -309,7 +309,7 @@ impl Accel {
         t_min: f32,
         light: &Light,
         lanes: u32,
-        among: Option<Candidates<'_>>,
+        among: Option<Among<'_>>,
     ) -> u32 {
         let lanes = lanes & p.active;
         debug_assert_lanes_finite(p, lanes);
@@ -506,7 +506,7 @@ impl Tree {
         t_min: f32,
         light: &Light,
         lanes: u32,
-        among: Option<Candidates<'_>>,
+        among: Option<Among<'_>>,
     ) -> u32 {
         match self {
             Tree::Linear(_) => lanes_where(lanes, |k| {

@@ -1,9 +1,11 @@
-//! Shadow candidates: in a small scene, the primitives that can stand between a group
-//! of surface points and a light. A shaded packet sends its shadow rays from the same
-//! points to the same light once per light sample (ten for an area light), so the
-//! primitives that none of those rays can meet are ruled out once, by boxes, and the
-//! samples test only the others, without the tree. Only misses are skipped: the image is
-//! the same bits (`tests/packets.rs` renders with and without specialisation).
+//! Shadow candidates: the primitives that can stand between a group of surface points
+//! and a light. A shaded packet sends its shadow rays from the same points to the same
+//! light once per light sample (ten for an area light), so the primitives that none of
+//! those rays can meet are ruled out once, by boxes, and the samples test only the
+//! others: in a small scene every primitive, without the tree; in a scene with a tree the
+//! primitives beside it (a ground quad, the lights' own spheres), and the tree as one
+//! box. Only misses are skipped: the image is the same bits (`tests/packets.rs` renders
+//! with and without specialisation).
 //!
 //! Why boxes are enough: a shadow ray from origin o towards the light counts a primitive
 //! only at a distance in `[t_min, t]`, t its own hit on the light, so the point it meets
@@ -35,23 +37,65 @@ pub const MAX_PRIMITIVES: usize = 64;
 /// 2.4e-4), over a thousand times the relative rounding of a hit point (about 1e-7).
 const PAD: f32 = 1.0 / 4096.0;
 
-/// The boxes of every primitive of a scene of at most `MAX_PRIMITIVES`, eight to an
-/// `f32x8`, in one numbering: the spheres, then the quads, then the triangles, each in
-/// pool order. The lights' boxes and own primitives alike.
+/// The boxes of a scene's primitives, eight to an `f32x8`, in one numbering (`Layout`):
+/// every primitive of a scene of at most `MAX_PRIMITIVES`, or those beside a tree and
+/// the tree's box. The lights' boxes and own primitives alike.
 #[derive(Clone, Debug)]
 pub struct ShadowBoxes {
-    /// `lo[axis][g]`, `hi[axis][g]`: primitives 8g to 8g + 7 (a padding lane holds an
-    /// empty box, which overlaps nothing).
+    /// `lo[axis][g]`, `hi[axis][g]`: boxes 8g to 8g + 7 (a padding lane holds an empty
+    /// box, which overlaps nothing).
     lo: [Vec<f32x8>; 3],
     hi: [Vec<f32x8>; 3],
-    /// Where the quads and the triangles start in the numbering.
-    quads: u32,
-    triangles: u32,
+    layout: Layout,
     /// Per light: its box, and its own primitives (never occluders).
     lights: Vec<(Aabb, u64)>,
-    /// Every primitive's box, in the numbering above: the shaft's tests, and a candidate
-    /// quad's box, which a packet tests before its edges (`Candidates::quad_box`).
+    /// Every box, in the numbering: the shaft's tests, and a candidate quad's box, which
+    /// a packet tests before its edges (`Candidates::quad_box`).
     boxes: Vec<Aabb>,
+}
+
+/// What the numbering of `ShadowBoxes` counts.
+#[derive(Clone, Copy, Debug)]
+enum Layout {
+    /// Every primitive: the spheres, then the quads from `quads`, then the triangles
+    /// from `triangles`, each in pool order.
+    Pools { quads: u32, triangles: u32 },
+    /// The primitives beside a tree, kind by kind (sphere, quad, triangle): `len[k]` of
+    /// kind k (at most 16) from `first[k]`, in the order `Bvh::beside_runs` reads them;
+    /// then the tree's box, when there is a tree, at `tree`.
+    Beside {
+        first: [u32; 3],
+        len: [u32; 3],
+        tree: Option<u32>,
+    },
+}
+
+/// What a packet's shadow rays to a light can meet (`ShadowBoxes::candidates`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Among<'a> {
+    /// In a small scene: these primitives, without the tree.
+    Only(Candidates<'a>),
+    /// In a scene with a tree: of the primitives beside it, those of `kept` (bit j of
+    /// `kept[k]`: kind k's j-th, as `Bvh::beside_runs` reads them); the tree only when
+    /// `tree`.
+    Beside { kept: [u32; 3], tree: bool },
+}
+
+impl Among<'_> {
+    /// How many candidates there are, the tree counting as one.
+    pub fn len(&self) -> usize {
+        match self {
+            Among::Only(c) => c.len(),
+            Among::Beside { kept, tree } => {
+                kept.iter().map(|k| k.count_ones() as usize).sum::<usize>() + *tree as usize
+            }
+        }
+    }
+
+    /// Nothing can occlude.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
 }
 
 /// Primitives a bundle of shadow rays may meet, as runs of one kind: (kind, first and
@@ -86,7 +130,50 @@ impl ShadowBoxes {
             .chain(&scene.triangles.object)
             .copied()
             .collect();
-        let groups = n.div_ceil(8);
+        let layout = Layout::Pools {
+            quads: ns as u32,
+            triangles: (ns + nq) as u32,
+        };
+        Some(Self::of_boxes(scene, boxes, &objects, layout))
+    }
+
+    /// The boxes of the primitives of `scene` beside its tree (`beside[k]`: the pool
+    /// indices of kind k) and of the tree (`tree`, its box when there is one); `None`
+    /// with more than 16 of a kind beside it (`bvh::LINEAR_LIMIT` keeps them fewer).
+    pub fn beside(scene: &Scene, beside: &[Range<usize>; 3], tree: Option<Aabb>) -> Option<Self> {
+        if beside.iter().any(|r| r.len() > 16) {
+            return None;
+        }
+        let (mut boxes, mut objects) = (Vec::new(), Vec::new());
+        let (mut first, mut len) = ([0; 3], [0; 3]);
+        for (k, range) in beside.iter().enumerate() {
+            first[k] = boxes.len() as u32;
+            len[k] = range.len() as u32;
+            for i in range.clone() {
+                let (b, o) = match PrimKind::ALL[k] {
+                    PrimKind::Sphere => (scene.spheres.bounds(i), scene.spheres.objects()[i]),
+                    PrimKind::Quad => (scene.quads.bounds(i), scene.quads.object[i]),
+                    PrimKind::Triangle => (scene.triangles.bounds(i), scene.triangles.object[i]),
+                };
+                boxes.push(b);
+                objects.push(o);
+            }
+        }
+        let tree = tree.map(|b| {
+            boxes.push(b);
+            // No light's object: the tree's box is never a light's own.
+            objects.push(u32::MAX);
+            boxes.len() as u32 - 1
+        });
+        let layout = Layout::Beside { first, len, tree };
+        Some(Self::of_boxes(scene, boxes, &objects, layout))
+    }
+
+    /// `boxes` (each of the object `objects[i]`) in the numbering `layout`, with the
+    /// boxes and own primitives of `scene`'s lights.
+    fn of_boxes(scene: &Scene, boxes: Vec<Aabb>, objects: &[u32], layout: Layout) -> Self {
+        debug_assert!(boxes.len() <= 64 && boxes.len() == objects.len());
+        let groups = boxes.len().div_ceil(8);
         let column = |f: &dyn Fn(&Aabb) -> f32, empty: f32| -> Vec<f32x8> {
             (0..groups)
                 .map(|g| {
@@ -118,7 +205,7 @@ impl ShadowBoxes {
                 (b, own)
             })
             .collect();
-        Some(ShadowBoxes {
+        ShadowBoxes {
             lo: [
                 column(&|b| b.min.x, f32::INFINITY),
                 column(&|b| b.min.y, f32::INFINITY),
@@ -130,17 +217,16 @@ impl ShadowBoxes {
                 column(&|b| b.max.z, f32::NEG_INFINITY),
             ],
             boxes,
-            quads: ns as u32,
-            triangles: (ns + nq) as u32,
+            layout,
             lights,
-        })
+        }
     }
 
-    /// The primitives other than light `light`'s own whose box meets the shaft from
-    /// `origins` to the light's box, both padded: all that a shadow ray from a point of
-    /// `origins` to the light can meet. `None` when they are too scattered to pay
-    /// (`MAX_RUNS`).
-    pub fn candidates(&self, light: usize, origins: &Aabb) -> Option<Candidates<'_>> {
+    /// The primitives other than light `light`'s own (and the tree) whose box meets the
+    /// shaft from `origins` to the light's box, both padded: all that a shadow ray from a
+    /// point of `origins` to the light can meet. `None` when they are too scattered to
+    /// pay (`MAX_RUNS`).
+    pub fn candidates(&self, light: usize, origins: &Aabb) -> Option<Among<'_>> {
         let (light_box, own) = self.lights[light];
         let region = origins.union(light_box);
         let scale = region.min.abs().max(region.max.abs()).max_element();
@@ -172,8 +258,17 @@ impl ShadowBoxes {
                 }
             }
         }
-        let (quads, triangles) = (self.quads as usize, self.triangles as usize);
-        Candidates::of_mask(mask, quads, triangles, &self.boxes[quads..triangles])
+        match self.layout {
+            Layout::Pools { quads, triangles } => {
+                let (quads, triangles) = (quads as usize, triangles as usize);
+                Candidates::of_mask(mask, quads, triangles, &self.boxes[quads..triangles])
+                    .map(Among::Only)
+            }
+            Layout::Beside { first, len, tree } => Some(Among::Beside {
+                kept: std::array::from_fn(|k| ((mask >> first[k]) & ((1u64 << len[k]) - 1)) as u32),
+                tree: tree.is_some_and(|t| mask >> t & 1 != 0),
+            }),
+        }
     }
 }
 

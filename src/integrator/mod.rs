@@ -240,7 +240,11 @@ impl<'a> Tracer<'a> {
 
     pub fn with_sampler(scene: &'a Scene, accel: &'a Accel, sampler: Sampler) -> Self {
         let shadow_boxes = match accel.bvh() {
-            Some(_) if scene.lights.iter().any(|l| !l.is_point()) => ShadowBoxes::new(scene),
+            Some(b) if scene.lights.iter().any(|l| !l.is_point()) => ShadowBoxes::new(scene)
+                .or_else(|| {
+                    let tree = b.root.map(|_| b.tree_box);
+                    ShadowBoxes::beside(scene, &b.linear, tree)
+                }),
             _ => None,
         };
         Self {

@@ -26,7 +26,7 @@ use super::{
 };
 use crate::accel::cull::Cull;
 use crate::accel::packet::{PacketHits, RayPacket};
-use crate::accel::shadow::{origins_box, Candidates};
+use crate::accel::shadow::{origins_box, Among};
 use crate::accel::Context;
 use crate::geometry::spawn::{spawn_origin, spawn_origins};
 use crate::geometry::Ray;
@@ -769,7 +769,7 @@ impl Tracer<'_> {
         l: V3<L>,
         lanes: u32,
         light: &Light,
-        among: Option<Candidates<'_>>,
+        among: Option<Among<'_>>,
         counts: &mut RayCounts,
     ) -> u32 {
         counts.shadow += lanes.count_ones() as u64;

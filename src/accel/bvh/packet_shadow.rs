@@ -1,12 +1,12 @@
 //! A packet's shadow rays through the BVH (`ShadowLanes`, `ShadowQuery` in lanes): the
-//! light's own hits lane-wise, then the occluders beside the tree, among an area light's
-//! candidates (`shadow::Candidates`) or through the 4-wide nodes.
+//! light's own hits lane-wise, then the occluders beside the tree and through the 4-wide
+//! nodes, or only those of an area light's candidates (`shadow::Among`).
 
 use super::node::{decode_leaf, EMPTY, LEAF};
 use super::single::RayQuery;
 use super::{Bvh, LIGHT_PRIMITIVES_SCANNED};
 use crate::accel::packet::{ids, in_play, PacketQuery, RayPacket};
-use crate::accel::shadow::Candidates;
+use crate::accel::shadow::{Among, Candidates};
 use crate::accel::stack::{TraversalStack, STACK4};
 use crate::accel::{Context, ShadowQuery};
 use crate::geometry::PrimKind;
@@ -206,14 +206,21 @@ impl Bvh {
             .iter()
             .find(|l| l.object == light.object)
             .map(|l| light_kind(&l.shape));
-        self.occluded_lanes(&mut PacketQuery::new(cx, p), light, lanes)
+        self.occluded_lanes(
+            &mut PacketQuery::new(cx, p),
+            light,
+            lanes,
+            &[u32::MAX; 3],
+            true,
+        )
     }
 
     /// `Accel::light_visible` for the active lanes of `p` in `lanes`: the mask of those
     /// that see `light`. The light's own hits and the occluders share the packet's
     /// watertight lanes (made once, at the first quad or triangle edge test). With
-    /// `among` (`shadow::Candidates` of the lanes' origins), only those primitives are
-    /// tested as occluders, without the tree.
+    /// `among` (`shadow::ShadowBoxes::candidates` of the lanes' origins), only those
+    /// primitives are tested as occluders: without the tree in a small scene, and the
+    /// tree only when the shaft meets its box in one with a tree.
     pub fn light_visible_packet<L: Lane>(
         &self,
         cx: Context<'_>,
@@ -221,7 +228,7 @@ impl Bvh {
         t_min: f32,
         light: &Light,
         lanes: u32,
-        among: Option<Candidates<'_>>,
+        among: Option<Among<'_>>,
     ) -> u32 {
         let lanes = lanes & p.active;
         if lanes == 0 {
@@ -246,20 +253,25 @@ impl Bvh {
             object: light.object,
             kind: Some(light_kind(&light.shape)),
         };
-        let occluded = match among {
-            Some(c) => occluded_among(&mut q, own, reach, c),
-            None => self.occluded_lanes(&mut q, own, reach),
+        let (kept, tree) = match among {
+            Some(Among::Only(c)) => return reach & !occluded_among(&mut q, own, reach, c),
+            Some(Among::Beside { kept, tree }) => (kept, tree),
+            None => ([u32::MAX; 3], true),
         };
-        reach & !occluded
+        // (One call: the traversal is inlined where it is called.)
+        reach & !self.occluded_lanes(&mut q, own, reach, &kept, tree)
     }
 
-    /// `occluded_packet` with the light as lanes.
+    /// `occluded_packet` with the light as lanes, over the primitives beside the tree of
+    /// `kept` (`beside_runs`) and the tree when `tree`.
     #[inline(always)]
     fn occluded_lanes<L: Lane>(
         &self,
         q: &mut PacketQuery<'_, '_, L>,
         light: ShadowLanes<L>,
         lanes: u32,
+        kept: &[u32; 3],
+        tree: bool,
     ) -> u32 {
         let p = q.p;
         let mut remaining = lanes & p.active;
@@ -268,7 +280,7 @@ impl Bvh {
         let t_min = light.t_min;
         let mut t_max = in_play(remaining, light.t_light);
         self.beside_runs(
-            &[u32::MAX; 3],
+            kept,
             #[inline(always)]
             |kind, run| {
                 if remaining == 0 {
@@ -282,7 +294,7 @@ impl Bvh {
                 true
             },
         );
-        let Some(root) = self.root else {
+        let Some(root) = self.root.filter(|_| tree) else {
             return occluded;
         };
         if remaining == 0 {
