@@ -207,8 +207,9 @@ impl<L: Lane> RayPacket<L> {
     /// with that order and the triangle columns in it; else with each lane's order as
     /// masks, through which the triangle and quad tests read the vertices. Made at a
     /// packet's first triangle or quad test (`LazyTriangles`): most `bunny` packets never
-    /// reach one, and these are three divisions a packet. Inlined into `LazyTriangles::make`, and written into its slot
-    /// `out`: returned, they were copied twice (`OnceCell`), a 450-byte memcpy each.
+    /// reach one, and these are three divisions a packet. Inlined into
+    /// `LazyTriangles::make`, and written into its slot `out`: returned, they were copied
+    /// twice (`OnceCell`), a 450-byte memcpy each.
     ///
     /// The lanes whose axes differ take their constants out of line (`per_lane_lanes`).
     /// Inline, the two cases' `Order`s (axes in one, masks in the other, in the same
@@ -802,7 +803,7 @@ fn pick<L: Lane>(v: [L; 3], [is_x, is_y]: [L::Mask; 2]) -> L {
 pub(crate) struct LazyTriangles<'a, L: Lane> {
     packet: &'a RayPacket<L>,
     tri: &'a TrianglePool,
-    made: bool,
+    /// `None` until the first test asks (`make` always fills it).
     lanes: Option<TriangleLanes<'a, L>>,
 }
 
@@ -812,7 +813,6 @@ impl<'a, L: Lane> LazyTriangles<'a, L> {
         Self {
             packet,
             tri: &scene.triangles,
-            made: false,
             lanes: None,
         }
     }
@@ -823,7 +823,7 @@ impl<'a, L: Lane> LazyTriangles<'a, L> {
         if kind == PrimKind::Sphere {
             return None;
         }
-        if !self.made {
+        if self.lanes.is_none() {
             self.make();
         }
         self.lanes.as_ref()
@@ -832,7 +832,6 @@ impl<'a, L: Lane> LazyTriangles<'a, L> {
     #[inline(never)]
     fn make(&mut self) {
         self.packet.triangle_lanes(self.tri, &mut self.lanes);
-        self.made = true;
     }
 }
 

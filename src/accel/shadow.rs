@@ -61,7 +61,7 @@ enum Layout {
     /// from `triangles`, each in pool order.
     Pools { quads: u32, triangles: u32 },
     /// The primitives beside a tree, kind by kind (sphere, quad, triangle): `len[k]` of
-    /// kind k (at most 16) from `first[k]`, in the order `Bvh::beside_runs` reads them;
+    /// kind k (at most 32) from `first[k]`, in the order `Bvh::beside_runs` reads them;
     /// then the tree's box, when there is a tree, at `tree`.
     Beside {
         first: [u32; 3],
@@ -139,9 +139,10 @@ impl ShadowBoxes {
 
     /// The boxes of the primitives of `scene` beside its tree (`beside[k]`: the pool
     /// indices of kind k) and of the tree (`tree`, its box when there is one); `None`
-    /// with more than 16 of a kind beside it (`bvh::LINEAR_LIMIT` keeps them fewer).
+    /// when they do not fit the numbering (a kind's mask is a `u32`, the whole a `u64`).
     pub fn beside(scene: &Scene, beside: &[Range<usize>; 3], tree: Option<Aabb>) -> Option<Self> {
-        if beside.iter().any(|r| r.len() > 16) {
+        let count = beside.iter().map(|r| r.len()).sum::<usize>() + tree.is_some() as usize;
+        if beside.iter().any(|r| r.len() > 32) || count > 64 {
             return None;
         }
         let (mut boxes, mut objects) = (Vec::new(), Vec::new());
