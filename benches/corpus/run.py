@@ -32,6 +32,7 @@ BIN = os.path.join(ROOT, "target", "release", "raytracer")
 CORPUS = [
     "sphere-field",
     "glass-cornell",
+    "metal-bunny",
     "triangle-light",
     "box-light",
     "bunny-light",
