@@ -338,6 +338,15 @@ impl Tree {
         }
     }
 
+    /// Whether every ray tests every primitive: a linear scan, or a BVH with none of the
+    /// scene's primitives in its tree (all in the loops beside it).
+    pub fn tests_everything(&self) -> bool {
+        match self {
+            Tree::Linear(_) => true,
+            Tree::Bvh(b) => b.root.is_none(),
+        }
+    }
+
     /// One line for `--stats`: what was built over the scene's pools.
     pub fn describe(&self, scene: &Scene) -> String {
         match self {
