@@ -882,10 +882,8 @@ fn accumulate_tile_regrouped<L: Lane>(
     }
     let mut colors = vec![V3::<L>::splat(Vec3::ZERO); packets.len()];
     let mut work = Regrouping::<L>::with_capacity(n);
-    // The first sample decides whether the others regroup (`Regrouped::pays`; always
-    // where every packet that lost a lane regroups); they are added after it, so each
-    // pixel still sums its samples in sample order.
-    let every = tracer.regroups_every_lane();
+    // The first sample decides whether the others regroup (`Regrouped::pays`); they are
+    // added after it, so each pixel still sums its samples in sample order.
     let mut regroup = true;
     let zero = [V3::<L>::splat(Vec3::ZERO); 2];
     let mut halves = vec![zero; if out.marked() { packets.len() } else { 0 }];
@@ -913,7 +911,7 @@ fn accumulate_tile_regrouped<L: Lane>(
                 out.note(s, *sum, halves, p.active, at);
             }
         }
-        regroup = every || saved.pays();
+        regroup = saved.pays();
     }
     for (p, sum) in packets.iter().zip(&lanes) {
         out.finish(*sum, p.active, |k| at(p.x0, p.y0, k));

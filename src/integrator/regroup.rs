@@ -37,20 +37,23 @@ pub struct Regrouping<L: Lane> {
 }
 
 /// What `Tracer::sample_tile` saved: of the packets it would have traced past the
-/// camera's vertex in place (`traces + saved`), those it did not trace.
+/// camera's vertex in place (`traces + saved`), those it did not trace; `every`: it
+/// regrouped every packet that lost a lane (`Tracer::regroups_every_lane`).
 #[derive(Clone, Copy, Debug)]
 pub struct Regrouped {
     pub traces: u32,
     pub saved: u32,
+    pub every: bool,
 }
 
 impl Regrouped {
     /// Whether regrouping pays in a tile where it saved this: at least a tenth of the
     /// packets' traces. Below, gathering costs more than it saves: in `mixed` most
     /// tiles' paths end at the camera's vertex (Phong, the background), and those that
-    /// go on are mostly a glass or metal sphere's full, coherent packets.
+    /// go on are mostly a glass or metal sphere's full, coherent packets. Always where
+    /// every packet that lost a lane regroups.
     pub fn pays(self) -> bool {
-        self.saved > 0 && self.saved * 10 >= self.traces + self.saved
+        self.every || self.saved > 0 && self.saved * 10 >= self.traces + self.saved
     }
 }
 
@@ -174,7 +177,11 @@ impl Tracer<'_> {
         for g in groups.iter() {
             send_home(g, g.members, out);
         }
-        Regrouped { traces, saved }
+        Regrouped {
+            traces,
+            saved,
+            every,
+        }
     }
 }
 
