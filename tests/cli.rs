@@ -1250,6 +1250,28 @@ fn stats_and_report_count_non_finite_pixels() {
     assert_eq!(r["non_finite_pixels"].as_u64(), Some(0), "{text}");
 }
 
+/// `--stats`' packet line names the instruction set the lanes were compiled for
+/// (`lanes::ISA`), at every packet width. Checked it can fail: with the line's old
+/// "(AVX2 on)" on the AVX-512 build, the test fails.
+#[test]
+fn stats_name_the_instruction_set_compiled_in() {
+    for width in ["4", "8", "16"] {
+        let case = Case::spheres(&["--stats", "--packet-width", width]);
+        let (_dir, run) = case.run();
+        assert_eq!(run.code, Some(0), "{}", run.stderr);
+        let line = run
+            .stderr
+            .lines()
+            .find(|l| l.contains("-wide packets"))
+            .unwrap_or_else(|| panic!("no packet line in: {}", run.stderr));
+        let want = format!(
+            "stats: {width}-wide packets ({} build): ",
+            raytracer::lanes::ISA
+        );
+        assert!(line.starts_with(&want), "{line}");
+    }
+}
+
 #[cfg(unix)]
 #[test]
 fn output_files_get_ordinary_permissions() {

@@ -52,8 +52,8 @@ pub fn print(run: &Run) {
         let nodes = (t.packet_nodes > 0)
             .then(|| t.packet_lanes as f64 / (t.packet_nodes * w as u64) as f64);
         to_stderr!(
-            "stats: {w}-wide packets (AVX2 {}): lane occupancy camera {}, shadow {}, secondary {}; at node visits {}",
-            if raytracer::lanes::AVX2 { "on" } else { "off" },
+            "stats: {w}-wide packets ({} build): lane occupancy camera {}, shadow {}, secondary {}; at node visits {}",
+            raytracer::lanes::ISA,
             pct(counts.camera_packets.occupancy(w)),
             pct(counts.shadow_packets.occupancy(w)),
             pct(counts.secondary_packets.occupancy(w)),
