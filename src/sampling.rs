@@ -43,8 +43,8 @@ pub enum SamplerKind {
     /// Independent hashed numbers: the original program's plain random sampling.
     Independent,
     /// Correlated multi-jittered sampling (Kensler 2013): per pixel and per pair of
-    /// dimensions, the N = spp × (draws per sample) points are jittered in an m × n grid
-    /// and stratified in N strata along one axis.
+    /// dimensions, the N = spp points are jittered in an m × n grid and stratified in N
+    /// strata along one axis.
     Stratified,
     /// Owen-scrambled Sobol (0,2)-sequence, padded: every pair of dimensions gets its own
     /// scramble and its own shuffle of the sample index (Burley 2020), per pixel. The
@@ -169,12 +169,10 @@ impl SampleKey {
         // One scramble per pixel and pair of dimensions.
         let pair = dimension_hash(vertex, d.pair);
         let seed = hash_u32(self.pixel ^ pair);
-        let index = self.sample.wrapping_mul(d.draws).wrapping_add(d.draw);
         if self.kind == SamplerKind::Sobol {
-            to_unit(sobol_owen(index, seed, d.component))
+            to_unit(sobol_owen(self.sample, seed, d.component))
         } else {
-            let n = self.spp.saturating_mul(d.draws);
-            cmj(index % n, n, seed, d.component)
+            cmj(self.sample % self.spp, self.spp, seed, d.component)
         }
     }
 }
@@ -293,9 +291,8 @@ impl KeyLanes {
             SamplerKind::Sobol => {
                 let d = Dimension::of(slot);
                 let pair = dimension_hash(vertex, d.pair);
-                let index = self.sample.wrapping_mul(d.draws).wrapping_add(d.draw);
                 for (u, &p) in u.iter_mut().zip(&self.pixel).take(L::WIDTH) {
-                    *u = to_unit(sobol_owen(index, hash_u32(p ^ pair), d.component));
+                    *u = to_unit(sobol_owen(self.sample, hash_u32(p ^ pair), d.component));
                 }
             }
             SamplerKind::Stratified => self.stratified(vertex, slot, &mut u[..L::WIDTH]),
@@ -317,10 +314,9 @@ impl KeyLanes {
         let d = Dimension::of(slot);
         debug_assert!(d.component == 0 && Dimension::of(slot + 1).pair == d.pair);
         let pair = dimension_hash(vertex, d.pair);
-        let index = self.sample.wrapping_mul(d.draws).wrapping_add(d.draw);
         let (mut u, mut v) = ([0.0f32; MAX_LANES], [0.0f32; MAX_LANES]);
         for k in 0..L::WIDTH {
-            let [a, b] = sobol_owen_pair(index, hash_u32(self.pixel[k] ^ pair));
+            let [a, b] = sobol_owen_pair(self.sample, hash_u32(self.pixel[k] ^ pair));
             (u[k], v[k]) = (to_unit(a), to_unit(b));
         }
         (L::from_fn(|i| u[i]), L::from_fn(|i| v[i]))
@@ -349,38 +345,24 @@ struct Dimension {
     pair: u32,
     /// 0 or 1 within the pair (a one-dimensional slot is component 0 of its own pair).
     component: u32,
-    /// Draws of this pair per camera sample (light samples: `MAX_LIGHT_SAMPLES`) and which
-    /// one this is: the pixel's draws of a pair are indexed sample × draws + draw.
-    draws: u32,
-    draw: u32,
 }
 
 impl Dimension {
     #[inline]
     fn of(s: u32) -> Self {
-        let one = |pair, component| Dimension {
-            pair,
-            component,
-            draws: 1,
-            draw: 0,
-        };
+        let one = |pair, component| Dimension { pair, component };
         match s {
             slot::JITTER_X | slot::JITTER_Y => one(slot::JITTER_X, s - slot::JITTER_X),
             slot::SCATTER_A | slot::SCATTER_B => one(slot::SCATTER_A, s - slot::SCATTER_A),
             slot::LENS_X | slot::LENS_Y => one(slot::LENS_X, s - slot::LENS_X),
             _ if s < slot::LIGHT_BASE => one(s, 0),
+            // slot::light(light, k, c): c = 0 picks the primitive (one dimension), c = 1,
+            // 2 are the point on it (a pair). Sample k of an area light lies in its own
+            // cell of the light (`Light::stratum`), so each k is a pair of its own,
+            // spread over the pixel's samples within that cell.
             _ => {
-                // slot::light(light, k, c): c = 0 picks the primitive (one dimension),
-                // c = 1, 2 are the point on it (a pair); k is the draw.
-                let rel = s - slot::LIGHT_BASE;
-                let (lk, c) = (rel / 3, rel % 3);
-                let (light, k) = (lk / MAX_LIGHT_SAMPLES, lk % MAX_LIGHT_SAMPLES);
-                Dimension {
-                    pair: slot::light(light, 0, c.min(1)),
-                    component: c.saturating_sub(1),
-                    draws: MAX_LIGHT_SAMPLES,
-                    draw: k,
-                }
+                let c = (s - slot::LIGHT_BASE) % 3;
+                one(s + c.min(1) - c, c.saturating_sub(1))
             }
         }
     }
@@ -724,14 +706,16 @@ mod tests {
     }
 
     #[test]
-    fn light_slots_map_to_pairs_and_draws() {
+    fn light_slots_map_to_pairs() {
         let d = |l, k, c| Dimension::of(slot::light(l, k, c));
-        assert_eq!((d(0, 0, 0).component, d(0, 0, 0).draw), (0, 0));
-        assert_eq!((d(1, 7, 2).component, d(1, 7, 2).draw), (1, 7));
-        assert_eq!(d(1, 7, 1).pair, d(1, 0, 2).pair);
-        assert_ne!(d(1, 7, 1).pair, d(1, 7, 0).pair);
+        assert_eq!(d(0, 0, 0).component, 0);
+        assert_eq!((d(1, 7, 1).component, d(1, 7, 2).component), (0, 1));
+        assert_eq!(d(1, 7, 1).pair, d(1, 7, 2).pair);
+        assert_eq!(d(1, 7, 1).pair, slot::light(1, 7, 1));
+        assert_eq!(d(1, 7, 0).pair, slot::light(1, 7, 0));
+        assert_ne!(d(1, 7, 1).pair, d(1, 6, 1).pair);
         assert_ne!(d(1, 7, 1).pair, d(2, 7, 1).pair);
-        assert_eq!(d(3, 9, 1).draws, MAX_LIGHT_SAMPLES);
+        assert_ne!(d(1, 9, 2).pair, d(2, 0, 0).pair);
         assert_eq!(Dimension::of(slot::JITTER_Y).pair, slot::JITTER_X);
         assert_eq!(Dimension::of(slot::SCATTER_CHOICE).component, 0);
         assert_eq!(Dimension::of(slot::LENS_Y).pair, slot::LENS_X);
@@ -776,28 +760,26 @@ mod tests {
                 }
             }
         }
-        // Light draws: spp 8 × 10 draws = 80 points; the first 64 are a net.
-        let sampler = Sampler::new(SamplerKind::Sobol, 1, 8);
-        let mut pts = Vec::new();
-        for s in 0..8 {
-            for k in 0..MAX_LIGHT_SAMPLES {
-                let key = sampler.key(0, 0, s);
-                let u = key.uniform(0, slot::light(0, k, 1));
-                let v = key.uniform(0, slot::light(0, k, 2));
-                pts.push((s * MAX_LIGHT_SAMPLES + k, u, v));
+        // An area light's sample k (a pair of its own): a pixel's 16 samples are a net,
+        // as `uniform_pair` gives them too.
+        for k in [0, 3, MAX_LIGHT_SAMPLES - 1] {
+            let pair = slot::light(1, k, 1);
+            assert!(
+                all_distinct(cells_of(pair, SamplerKind::Sobol, 16, 4, 4)),
+                "{k}"
+            );
+            let sampler = Sampler::new(SamplerKind::Sobol, 3, 16);
+            for s in 0..16 {
+                let key = sampler.key(10, 20, s);
+                let (u, v) = KeyLanes::from_keys(&[key]).uniform_pair::<f32>(0, pair);
+                assert_eq!((u, v), (key.uniform(0, pair), key.uniform(0, pair + 1)));
             }
         }
-        let first: Vec<(u32, u32)> = pts
-            .iter()
-            .filter(|p| p.0 < 64)
-            .map(|p| ((p.1 * 8.0) as u32, (p.2 * 8.0) as u32))
-            .collect();
-        assert!(all_distinct(first));
     }
 
     #[test]
     fn stratified_fills_its_strata() {
-        for pair in [slot::JITTER_X, slot::LENS_X] {
+        for pair in [slot::JITTER_X, slot::LENS_X, slot::light(1, 4, 1)] {
             let cells = |spp, cols, rows| cells_of(pair, SamplerKind::Stratified, spp, cols, rows);
             for n in [1, 2, 7, 10, 16, 25] {
                 // Component 0 (x here): one point per 1/n stratum.

@@ -808,6 +808,7 @@ pub(super) fn light_targets<L: Lane>(
         L::splat(0.0)
     };
     let (a, b) = keys.uniform_pair::<L>(vertex, slot::light(li, k, 1));
+    let (pick, a, b) = light.stratum(k, pick, a, b);
     light.sample_lanes(pick, a, b)
 }
 

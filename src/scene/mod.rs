@@ -32,6 +32,11 @@ pub use source::SceneSource;
 /// Samples per area light (quad, triangle, box or mesh light), as in the original program.
 pub const AREA_LIGHT_SAMPLES: u32 = 10;
 
+/// The cells an area light's samples are spread over, one sample a cell (`Light::
+/// stratum`): five by two on a face, or ten bands of the primitives' order.
+pub const AREA_LIGHT_STRATA: (u32, u32) = (5, 2);
+const _: () = assert!(AREA_LIGHT_STRATA.0 * AREA_LIGHT_STRATA.1 == AREA_LIGHT_SAMPLES);
+
 /// Most 1-to-4 subdivisions of a mesh (4⁶ = 4096 times the triangles).
 pub const MAX_SUBDIVIDE: u32 = 6;
 
