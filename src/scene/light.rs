@@ -7,10 +7,8 @@ use crate::geometry::sphere::sphere_intersect;
 use crate::geometry::triangle::WatertightRay;
 use crate::geometry::{beats, Ray};
 use crate::lanes::{Lane, V3};
+use crate::sampling::ONE_MINUS_EPSILON;
 use glam::Vec3;
-
-/// The largest f32 below 1.
-const BELOW_ONE: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// The shape a light is sampled on. A sphere light is a point light at its centre.
 #[derive(Clone, Debug, PartialEq)]
@@ -79,9 +77,10 @@ impl Light {
         if self.is_point() {
             return (pick, xi1, xi2);
         }
+        debug_assert!(k < AREA_LIGHT_SAMPLES);
         // (i + x) / n rounds to at most 1: the largest number below 1 keeps the cell.
         let cell = |i: u32, n: u32, x: L| {
-            ((L::splat(i as f32) + x) / L::splat(n as f32)).min(L::splat(BELOW_ONE))
+            ((L::splat(i as f32) + x) / L::splat(n as f32)).min(L::splat(ONE_MINUS_EPSILON))
         };
         if self.primitives() > 1 {
             return (cell(k, AREA_LIGHT_SAMPLES, pick), xi1, xi2);
@@ -212,7 +211,7 @@ mod tests {
             (i as f32 / n as f32) <= x && x <= (i + 1) as f32 / n as f32 && x < 1.0
         };
         for k in 0..AREA_LIGHT_SAMPLES {
-            for xi in [0.0, 0.25, 0.5, 0.75, BELOW_ONE] {
+            for xi in [0.0, 0.25, 0.5, 0.75, ONE_MINUS_EPSILON] {
                 let (pick, a, b) = one.stratum(k, 0.3f32, xi, 1.0 - xi.max(0.5));
                 assert_eq!(pick, 0.3);
                 assert!(within(a, k % nu, nu) && within(b, k / nu, nv), "{k} {xi}");
