@@ -1,7 +1,7 @@
 //! Packets against single rays, one thread, on the same rays: the camera rays of `bunny`
 //! and `bunny-closeup` (800x450, 10 jittered samples a pixel, grouped as the renderer
-//! groups them: 4x2 pixels at one sample index for 8 lanes, 2x2 for 4), and the shadow
-//! rays from the `bunny` camera rays' Phong hits to its point light.
+//! groups them: 4x4 pixels at one sample index for 16 lanes, 4x2 for 8, 2x2 for 4), and
+//! the shadow rays from the `bunny` camera rays' Phong hits to its point light.
 //!
 //! The packets are handed over with their rays already in lanes (`common::in_lanes`),
 //! as the renderer makes them and as `rtcIntersect8` takes them; the timed loop makes
@@ -146,6 +146,12 @@ fn bench_packets(c: &mut Criterion) {
             visible_scalar(&scene, &accel, &flatten(&s4)),
             visible_packets::<glam::Vec4>(&scene, &accel, &t4)
         );
+        let s16 = shadow_packets(&scene, &accel, &p16);
+        let t16 = in_lanes::<F32x16>(&s16);
+        assert_eq!(
+            visible_scalar(&scene, &accel, &flatten(&s16)),
+            visible_packets::<F32x16>(&scene, &accel, &t16)
+        );
         let mut group = c.benchmark_group(format!("shadow_rays/{name}"));
         group.sample_size(10);
         group.throughput(Throughput::Elements(s1.len() as u64));
@@ -157,6 +163,9 @@ fn bench_packets(c: &mut Criterion) {
         });
         group.bench_function("8-wide", |b| {
             b.iter(|| visible_packets::<f32x8>(&scene, &accel, &t8).len())
+        });
+        group.bench_function("16-wide", |b| {
+            b.iter(|| visible_packets::<F32x16>(&scene, &accel, &t16).len())
         });
         group.finish();
     }
