@@ -484,7 +484,11 @@ impl<L: Lane> RayPacket<L> {
     /// design's starting point): 188.9M / 115.7M, ≤ 5: 213.5M / 119.7M; whole renders,
     /// one thread, 5 alternating runs, medians ≤ 0 vs ≤ 3: closeup 1.07 vs 1.15 s, bunny
     /// 0.66 vs 0.70 s. Empty lanes cost less than leaving the packet; a lone lane is
-    /// kept scalar (a few percent of instructions, within the noise in time).
+    /// kept scalar (a few percent of instructions). Kept in the packet at 8 lanes
+    /// (≤ 0), the corpus's renders (one thread, 11 alternated rounds, paired medians)
+    /// take `sphere-field` 0.968x the time on the host's build (AVX-512) and 0.973x
+    /// on an AVX2 one (2.0% more instructions), but `metal-bunny` 1.033x on AVX2 and
+    /// the others 0.98–1.02x: not kept.
     #[inline]
     pub fn fallback() -> u32 {
         (L::WIDTH >= 8) as u32
