@@ -24,7 +24,7 @@ use raytracer::scene::{Overrides, Scene};
 use wide::f32x8;
 
 mod common;
-use common::{camera_packets, flatten, in_lanes, shadow_packets, LanePacket};
+use common::{camera_packets, flatten, in_lanes, shadow_packets, LanePacket, Packet};
 
 fn closest_packets<L: Lane>(scene: &Scene, accel: &Accel, packets: &[LanePacket<L>]) -> Vec<u64> {
     let mut stats = TraversalStats::default();
@@ -83,34 +83,51 @@ fn visible_scalar(scene: &Scene, accel: &Accel, rays: &[Ray]) -> Vec<bool> {
     out
 }
 
+/// `packets` in lanes of `L`, checked first: their closest hits are the scalar path's
+/// for the same rays in the same order.
+fn camera_lanes<L: Lane>(
+    name: &str,
+    scene: &Scene,
+    accel: &Accel,
+    packets: &[Packet],
+) -> Vec<LanePacket<L>> {
+    let lanes = in_lanes::<L>(packets);
+    assert_eq!(
+        closest_scalar(scene, accel, &flatten(packets)),
+        closest_packets::<L>(scene, accel, &lanes),
+        "{}-wide camera rays of {name}",
+        L::WIDTH
+    );
+    lanes
+}
+
+/// `camera_lanes` for shadow rays: what they see of the light is the scalar path's.
+fn shadow_lanes<L: Lane>(scene: &Scene, accel: &Accel, packets: &[Packet]) -> Vec<LanePacket<L>> {
+    let lanes = in_lanes::<L>(packets);
+    assert_eq!(
+        visible_scalar(scene, accel, &flatten(packets)),
+        visible_packets::<L>(scene, accel, &lanes),
+        "{}-wide shadow rays",
+        L::WIDTH
+    );
+    lanes
+}
+
 fn bench_packets(c: &mut Criterion) {
     eprintln!("lanes: {}", raytracer::lanes::COMPILED);
     for name in ["bunny", "bunny-closeup"] {
         let mut scene = Scene::load(name, Overrides::default()).unwrap();
         let accel = Accel::build(&mut scene, AccelKind::Bvh);
-        let (p4, p8) = (camera_packets(&scene, 4), camera_packets(&scene, 8));
+        let p4 = camera_packets(&scene, 4);
+        let p8 = camera_packets(&scene, 8);
+        let p16 = camera_packets(&scene, 16);
         // The scalar path traces the 8-wide packets' rays, in their order.
         let r1 = flatten(&p8);
-        let (l4, l8) = (in_lanes::<glam::Vec4>(&p4), in_lanes::<f32x8>(&p8));
-        // Validate: every width gives the scalar answers (4-wide packets order the rays
-        // differently: compare those with their own flattening).
-        assert_eq!(
-            closest_scalar(&scene, &accel, &r1),
-            closest_packets::<f32x8>(&scene, &accel, &l8),
-            "8-wide camera rays of {name}"
-        );
-        assert_eq!(
-            closest_scalar(&scene, &accel, &flatten(&p4)),
-            closest_packets::<glam::Vec4>(&scene, &accel, &l4),
-            "4-wide camera rays of {name}"
-        );
-        let p16 = camera_packets(&scene, 16);
-        let l16 = in_lanes::<F32x16>(&p16);
-        assert_eq!(
-            closest_scalar(&scene, &accel, &flatten(&p16)),
-            closest_packets::<F32x16>(&scene, &accel, &l16),
-            "16-wide camera rays of {name}"
-        );
+        // Every width gives the scalar answers (4-wide packets order the rays
+        // differently: each width is checked against its own flattening).
+        let l4 = camera_lanes::<glam::Vec4>(name, &scene, &accel, &p4);
+        let l8 = camera_lanes::<f32x8>(name, &scene, &accel, &p8);
+        let l16 = camera_lanes::<F32x16>(name, &scene, &accel, &p16);
 
         let mut group = c.benchmark_group(format!("camera_rays/{name}"));
         group.sample_size(10);
@@ -132,26 +149,11 @@ fn bench_packets(c: &mut Criterion) {
         if name != "bunny" {
             continue;
         }
-        let (s4, s8) = (
-            shadow_packets(&scene, &accel, &p4),
-            shadow_packets(&scene, &accel, &p8),
-        );
+        let s8 = shadow_packets(&scene, &accel, &p8);
         let s1 = flatten(&s8);
-        let (t4, t8) = (in_lanes::<glam::Vec4>(&s4), in_lanes::<f32x8>(&s8));
-        assert_eq!(
-            visible_scalar(&scene, &accel, &s1),
-            visible_packets::<f32x8>(&scene, &accel, &t8)
-        );
-        assert_eq!(
-            visible_scalar(&scene, &accel, &flatten(&s4)),
-            visible_packets::<glam::Vec4>(&scene, &accel, &t4)
-        );
-        let s16 = shadow_packets(&scene, &accel, &p16);
-        let t16 = in_lanes::<F32x16>(&s16);
-        assert_eq!(
-            visible_scalar(&scene, &accel, &flatten(&s16)),
-            visible_packets::<F32x16>(&scene, &accel, &t16)
-        );
+        let t4 = shadow_lanes::<glam::Vec4>(&scene, &accel, &shadow_packets(&scene, &accel, &p4));
+        let t8 = shadow_lanes::<f32x8>(&scene, &accel, &s8);
+        let t16 = shadow_lanes::<F32x16>(&scene, &accel, &shadow_packets(&scene, &accel, &p16));
         let mut group = c.benchmark_group(format!("shadow_rays/{name}"));
         group.sample_size(10);
         group.throughput(Throughput::Elements(s1.len() as u64));

@@ -1,5 +1,5 @@
-//! How many lane operations a second this CPU runs at each packet width: twelve
-//! independent chains of one `Lane` operation (multiply-add as a multiply then an add,
+//! How many lane operations a second this CPU runs at each packet width: independent
+//! chains (`CHAINS`) of one `Lane` operation (multiply-add as a multiply then an add,
 //! as the renderer computes; a division; a square root) at 1, 4, 8 and 16 lanes, one
 //! thread, the best of five passes. Wider lanes pay in arithmetic only where a wider
 //! register runs as many instructions a second: where a 16-lane operation runs at half
